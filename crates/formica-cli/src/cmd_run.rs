@@ -1,0 +1,220 @@
+//! `formica run SCENARIO`: run one seed, or a range of seeds in parallel.
+
+use crate::{output, stats, CliError};
+use anyhow::Context;
+use formica::experiment::{Run, RunOptions};
+use formica::{Overrides, RunResult, Scenario};
+use rayon::prelude::*;
+use std::path::PathBuf;
+
+/// Arguments of `formica run`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML).
+    pub scenario: PathBuf,
+    /// Seed (default: the file's `run.seed`).
+    #[arg(long, conflicts_with = "seeds")]
+    pub seed: Option<u64>,
+    /// Run seeds A to B inclusive in parallel, e.g. `--seeds 1..100`.
+    #[arg(long, value_name = "A..B")]
+    pub seeds: Option<String>,
+    /// Simulated time limit in seconds (default: the file's `run.duration_s`).
+    #[arg(long)]
+    pub duration: Option<f32>,
+    /// Use this controller for every robot group.
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Write trajectories (CSV), the result (JSON) and a picture (PNG) into this folder.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print JSON lines instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Worker threads for `--seeds` (default: all cores). Results do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Parses `A..B` (inclusive).
+pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
+    let bad = || CliError::Input(format!("--seeds: expected A..B with A <= B, got `{s}`"));
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let a: u64 = a.trim().parse().map_err(|_| bad())?;
+    let b: u64 = b
+        .trim()
+        .trim_start_matches('=')
+        .parse()
+        .map_err(|_| bad())?;
+    if a > b {
+        return Err(bad());
+    }
+    Ok(a..=b)
+}
+
+fn overrides(a: &Args, seed: Option<u64>) -> Overrides {
+    Overrides {
+        seed,
+        duration_s: a.duration,
+        controller: a.controller.clone(),
+    }
+}
+
+fn describe(r: &RunResult) -> String {
+    let gd = r
+        .goal_distance_m
+        .map_or(String::new(), |d| format!(", goal distance {d:.3} m"));
+    let fill = match (r.object_robots, r.convexity_after) {
+        (Some(n), Some(c)) => format!(", {n} robots attached, convexity {c:.3}"),
+        _ => String::new(),
+    };
+    format!(
+        "{} seed {}: {} after {:.1} s ({} ticks, {} robots){gd}, object path {:.3} m, path efficiency {:.3}{fill}, {:.2} s wall time",
+        r.scenario,
+        r.seed,
+        r.outcome.name(),
+        r.sim_time_s,
+        r.ticks,
+        r.robots,
+        r.object_path_m,
+        r.path_efficiency,
+        r.wall_time_s
+    )
+}
+
+/// Runs the command.
+pub fn main(a: Args) -> Result<(), CliError> {
+    let sc = Scenario::load(&a.scenario)?;
+    if let Some(c) = &a.controller {
+        if !formica::controllers::NAMES.contains(&c.as_str()) {
+            return Err(CliError::Input(format!(
+                "--controller: unknown controller `{c}`, expected one of {}",
+                formica::controllers::NAMES.join(", ")
+            )));
+        }
+    }
+    if let Some(d) = a.duration {
+        if !(d > 0.0 && d.is_finite()) {
+            return Err(CliError::Input(format!(
+                "--duration: expected a positive number of seconds, got {d}"
+            )));
+        }
+    }
+    match &a.seeds {
+        Some(s) => run_many(&a, &sc, parse_seeds(s)?),
+        None => run_one(&a, &sc),
+    }
+}
+
+fn run_one(a: &Args, sc: &Scenario) -> Result<(), CliError> {
+    let opts = RunOptions {
+        overrides: overrides(a, a.seed),
+        record: a.out.is_some(),
+        robot_every: 1,
+    };
+    let mut run = Run::new(sc, &opts)?;
+    run.run_to_end();
+    let result = run.result();
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string(&result).context("encoding JSON")?
+        );
+    } else {
+        println!("{}", describe(&result));
+    }
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        if let Some(tr) = run.trajectories() {
+            output::write_trajectories(dir, tr)?;
+            let path: Vec<_> = tr
+                .object
+                .iter()
+                .map(|s| formica::geometry::Vec2::new(s.x, s.y))
+                .collect();
+            let overlay = formica_render::Overlay {
+                path: &path,
+                goal_radius: run.goal_radius(),
+            };
+            formica_render::save_png(&run.world, 900, &overlay, &dir.join("final.png"))
+                .map_err(anyhow::Error::msg)?;
+        }
+        let json = serde_json::to_string_pretty(&result).context("encoding JSON")?;
+        std::fs::write(dir.join("result.json"), json + "\n")
+            .with_context(|| format!("writing {}", dir.join("result.json").display()))?;
+        if !a.json {
+            println!(
+                "wrote {}/{{object.csv, robots.csv, result.json, final.png}}",
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Result<(), CliError> {
+    // Check the scenario builds before fanning out, so errors are reported once.
+    Run::new(
+        sc,
+        &RunOptions {
+            overrides: overrides(a, Some(*seeds.start())),
+            ..Default::default()
+        },
+    )?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")?;
+    let results: Vec<Result<RunResult, formica::ScenarioError>> = pool.install(|| {
+        seeds
+            .clone()
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|seed| {
+                let opts = RunOptions {
+                    overrides: overrides(a, Some(seed)),
+                    ..Default::default()
+                };
+                formica::run(sc, &opts).map(|(r, _)| r)
+            })
+            .collect()
+    });
+    let results: Vec<RunResult> = results.into_iter().collect::<Result<_, _>>()?;
+    let summary = stats::summarize(&sc.name, &results);
+    if a.json {
+        for r in &results {
+            println!("{}", serde_json::to_string(r).context("encoding JSON")?);
+        }
+        println!(
+            "{}",
+            serde_json::to_string(&summary).context("encoding JSON")?
+        );
+    } else {
+        for r in &results {
+            println!("{}", describe(r));
+        }
+        println!(
+            "{}: {} trials, success {:.1} % (95 % CI {:.1}-{:.1} %), median time {}, mean path efficiency {:.3}",
+            summary.scenario,
+            summary.trials,
+            100.0 * summary.success_rate,
+            100.0 * summary.success_ci95[0],
+            100.0 * summary.success_ci95[1],
+            summary.median_time_s.map_or("n/a (under half succeeded)".into(), |t| format!("{t:.1} s")),
+            summary.mean_path_efficiency
+        );
+    }
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let mut lines = String::new();
+        for r in &results {
+            lines += &(serde_json::to_string(r).context("encoding JSON")? + "\n");
+        }
+        std::fs::write(dir.join("results.jsonl"), lines).context("writing results.jsonl")?;
+        std::fs::write(
+            dir.join("summary.json"),
+            serde_json::to_string_pretty(&summary).context("encoding JSON")? + "\n",
+        )
+        .context("writing summary.json")?;
+    }
+    Ok(())
+}

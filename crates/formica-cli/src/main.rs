@@ -1,0 +1,68 @@
+//! `formica`: run, check and benchmark swarm cooperative-transport scenarios.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod cmd_bench;
+mod cmd_check;
+mod cmd_run;
+mod output;
+mod stats;
+
+/// Formica: a simulator and behaviour suite for cooperative transport by robot swarms.
+#[derive(Parser)]
+#[command(name = "formica", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scenario headless (one seed, or a range of seeds in parallel).
+    Run(cmd_run::Args),
+    /// Validate a scenario file and describe what it sets up.
+    Check(cmd_check::Args),
+    /// Measure robot-ticks per second on the standard scaled transport world.
+    Bench(cmd_bench::Args),
+}
+
+/// An error with the exit code it deserves: 2 for bad input, 1 otherwise.
+pub enum CliError {
+    /// The user's input (scenario file, arguments) is wrong.
+    Input(String),
+    /// Something else failed (I/O, ...).
+    Other(anyhow::Error),
+}
+
+impl From<formica::ScenarioError> for CliError {
+    fn from(e: formica::ScenarioError) -> Self {
+        CliError::Input(e.to_string())
+    }
+}
+
+impl From<anyhow::Error> for CliError {
+    fn from(e: anyhow::Error) -> Self {
+        CliError::Other(e)
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let r = match cli.command {
+        Command::Run(a) => cmd_run::main(a),
+        Command::Check(a) => cmd_check::main(a),
+        Command::Bench(a) => cmd_bench::main(a),
+    };
+    match r {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError::Input(m)) => {
+            eprintln!("error: {m}");
+            ExitCode::from(2)
+        }
+        Err(CliError::Other(e)) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}

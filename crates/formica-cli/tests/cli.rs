@@ -1,0 +1,214 @@
+//! The `formica` command as users call it.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn formica() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_formica"))
+}
+
+fn repo(p: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(p)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("formica-cli-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn every_shipped_scenario_checks() {
+    for entry in std::fs::read_dir(repo("scenarios")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let out = formica().arg("check").arg(&path).output().unwrap();
+            assert!(
+                out.status.success(),
+                "{}: {}",
+                path.display(),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+    }
+}
+
+#[test]
+fn run_json_has_the_promised_keys_and_out_writes_files() {
+    let dir = tmp("out");
+    let out = formica()
+        .args(["run"])
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--seed", "3", "--duration", "20", "--json", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in [
+        "scenario",
+        "seed",
+        "outcome",
+        "sim_time_s",
+        "ticks",
+        "robots",
+        "goal_distance_m",
+        "object_path_m",
+        "path_efficiency",
+        "wall_time_s",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key} in {v}");
+    }
+    assert_eq!(v["seed"], 3);
+    assert_eq!(v["ticks"], 200);
+    for f in ["object.csv", "robots.csv", "final.png", "result.json"] {
+        let meta = std::fs::metadata(dir.join(f)).unwrap_or_else(|_| panic!("{f} not written"));
+        assert!(meta.len() > 0, "{f} is empty");
+    }
+    let csv = std::fs::read_to_string(dir.join("object.csv")).unwrap();
+    assert_eq!(
+        csv.lines().count(),
+        1 + 201,
+        "header plus one row per tick and the start"
+    );
+}
+
+fn strip_wall_time(s: &str) -> String {
+    s.lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            if let Some(o) = v.as_object_mut() {
+                o.remove("wall_time_s");
+            }
+            v.to_string()
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn seeds_in_parallel_do_not_depend_on_thread_count() {
+    let run = |threads: &str| {
+        let out = formica()
+            .arg("run")
+            .arg(repo("scenarios/seed-transport.toml"))
+            .args([
+                "--seeds",
+                "1..4",
+                "--duration",
+                "15",
+                "--json",
+                "--threads",
+                threads,
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        strip_wall_time(&String::from_utf8_lossy(&out.stdout))
+    };
+    let one = run("1");
+    assert_eq!(one, run("2"));
+    let lines: Vec<&str> = one.lines().collect();
+    assert_eq!(lines.len(), 5);
+    let summary: serde_json::Value = serde_json::from_str(lines[4]).unwrap();
+    assert!(summary.get("seed").is_none());
+    for key in [
+        "trials",
+        "success_rate",
+        "success_ci95",
+        "median_time_s",
+        "mean_path_efficiency",
+    ] {
+        assert!(summary.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(summary["trials"], 4);
+}
+
+fn check_error(text: &str, want_line: usize, want: &str) {
+    let dir = tmp(&format!("bad{want_line}"));
+    let file = dir.join("bad.toml");
+    std::fs::write(&file, text).unwrap();
+    let out = formica().arg("run").arg(&file).output().unwrap();
+    assert_eq!(out.status.code(), Some(2), "exit code");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!("bad.toml:{want_line}:")),
+        "no file:line in {err}"
+    );
+    assert!(err.contains(want), "expected `{want}` in {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+const GOOD: &str = "[arena]\nsize = [6.0, 4.0]\n\n[[objects]]\nat = [-1.0, 0.0]\nshape = { box = [0.5, 0.5] }\n\n[[robots]]\ncount = 2\ncontroller = \"random-walk\"\nplacement = { poses = [[1.0, 0.0, 0.0], [1.5, 0.0, 0.0]] }\n";
+
+#[test]
+fn broken_files_get_file_line_and_expectation_with_exit_2() {
+    check_error(
+        &GOOD.replace("count = 2", "count = 2\nspeed = 3"),
+        10,
+        "unknown field `speed`",
+    );
+    check_error(
+        &GOOD.replace("count = 2", "count = \"two\""),
+        9,
+        "invalid type",
+    );
+    check_error(
+        &GOOD.replace(
+            "{ box = [0.5, 0.5] }",
+            "{ polygon = [[0, 0], [1, 1], [1, 0], [0, 1]] }",
+        ),
+        6,
+        "self-intersecting",
+    );
+    check_error(
+        &GOOD.replace("[1.5, 0.0, 0.0]", "[2.98, 0.0, 0.0]"),
+        11,
+        "inside a wall",
+    );
+    check_error(
+        &GOOD.replace("[1.5, 0.0, 0.0]", "[-1.0, 0.1, 0.0]"),
+        11,
+        "overlaps objects[0]",
+    );
+    check_error("[arena\nsize = 1", 1, "");
+}
+
+#[test]
+fn missing_file_is_an_input_error() {
+    let out = formica()
+        .args(["check", "no-such-file.toml"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-file.toml"));
+}
+
+#[test]
+fn bench_prints_json_lines() {
+    let out = formica()
+        .args(["bench", "--robots", "10,40", "--ticks", "5", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 2);
+    assert_eq!(lines[1]["robots"], 40);
+    assert!(lines[1]["robot_ticks_per_s"].as_f64().unwrap() > 0.0);
+    assert!(lines[1].get("peak_memory_mib").is_some());
+}

@@ -1,0 +1,385 @@
+//! Experiment hooks (like ARGoS loop functions): per-tick metrics, stop rules and the result of
+//! a run. [`run`] drives one world from its first tick to its outcome.
+
+use crate::geometry::Vec2;
+use crate::physics::Tag;
+use crate::scenario::{Scenario, ScenarioError};
+use crate::world::{Overrides, World};
+use serde::{Deserialize, Serialize};
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Outcome {
+    /// The object reached the goal (or the filling target was met).
+    Success,
+    /// The object touched a wall.
+    Wall,
+    /// The time limit passed.
+    Timeout,
+}
+
+impl Outcome {
+    /// Lower-case name, as in JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Outcome::Success => "success",
+            Outcome::Wall => "wall",
+            Outcome::Timeout => "timeout",
+        }
+    }
+}
+
+/// The result of one run: the JSON line `formica run --json` prints.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunResult {
+    /// Scenario name.
+    pub scenario: String,
+    /// Seed.
+    pub seed: u64,
+    /// How it ended.
+    pub outcome: Outcome,
+    /// Simulated seconds.
+    pub sim_time_s: f64,
+    /// Control ticks.
+    pub ticks: u64,
+    /// Number of robots.
+    pub robots: usize,
+    /// Controller(s) used, comma-separated by group.
+    pub controller: String,
+    /// Final distance from the object's centre to the goal (m); null without goal or object.
+    pub goal_distance_m: Option<f64>,
+    /// Length of the object's path (m).
+    pub object_path_m: f64,
+    /// Straight-line displacement / path length (0 when the object never moved).
+    pub path_efficiency: f64,
+    /// Robots attached to the object at the end.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object_robots: Option<usize>,
+    /// Time at which the last robot attached (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fill_time_s: Option<f64>,
+    /// Area of object / area of its convex hull, at the start.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub convexity_before: Option<f64>,
+    /// Area of object plus attached robots / area of their convex hull, at the end.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub convexity_after: Option<f64>,
+    /// Fraction of the area between the object and its hull covered by attached robots.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cavity_filled: Option<f64>,
+    /// Wall-clock seconds the run took (the only field that is not deterministic).
+    pub wall_time_s: f64,
+}
+
+/// One recorded sample of a trajectory.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Simulated time (s).
+    pub t: f64,
+    /// Which robot (`None`: the object).
+    pub id: Option<u32>,
+    /// x (m).
+    pub x: f32,
+    /// y (m).
+    pub y: f32,
+    /// Heading (rad).
+    pub theta: f32,
+}
+
+/// Trajectories recorded during a run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Trajectories {
+    /// Target object's centre of mass and heading, every tick.
+    pub object: Vec<Sample>,
+    /// Every released robot's pose, every `robot_every` ticks.
+    pub robots: Vec<Sample>,
+}
+
+/// Hooks called around each tick, like ARGoS loop functions.
+pub trait LoopFunctions {
+    /// After each tick.
+    fn post_step(&mut self, _world: &World) {}
+    /// Whether the run is over, and how.
+    fn is_finished(&self, _world: &World) -> Option<Outcome> {
+        None
+    }
+    /// Fills in metrics at the end.
+    fn finish(&self, _world: &World, _result: &mut RunResult) {}
+}
+
+/// The standard transport metrics and stop rules: path length, goal distance, goal / wall.
+pub struct TransportHooks {
+    goal_radius: Option<f32>,
+    on_goal: bool,
+    on_wall: bool,
+    last: Option<Vec2>,
+    path_m: f64,
+}
+
+impl TransportHooks {
+    /// Hooks for a world built from `sc`.
+    pub fn new(sc: &Scenario, world: &World) -> Self {
+        let stop = &sc.spec.stop;
+        let goal_radius = stop.goal_radius.or_else(|| {
+            world.target.map(|t| {
+                let size = object_size(world, t);
+                (stop.goal_size + size) / 2.0 + 0.05
+            })
+        });
+        Self {
+            goal_radius,
+            on_goal: stop.on_goal,
+            on_wall: stop.on_wall,
+            last: world.target.map(|t| world.object_center(t)),
+            path_m: 0.0,
+        }
+    }
+
+    /// The goal radius in use (m).
+    pub fn goal_radius(&self) -> Option<f32> {
+        self.goal_radius
+    }
+}
+
+/// Object size for the goal radius (Queiroz & MacRae): a lone disc's diameter, otherwise the
+/// diagonal of the bounding box of its outline.
+pub fn object_size(world: &World, i: usize) -> f32 {
+    let o = &world.objects[i];
+    if let [p] = o.parts.as_slice() {
+        if let crate::geometry::Primitive::Disc(r) = p.shape {
+            return 2.0 * r;
+        }
+    }
+    let pts: Vec<Vec2> = o.outlines().into_iter().flatten().collect();
+    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+    for p in pts {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    (hi - lo).length()
+}
+
+impl LoopFunctions for TransportHooks {
+    fn post_step(&mut self, world: &World) {
+        if let (Some(t), Some(last)) = (world.target, self.last) {
+            let now = world.object_center(t);
+            self.path_m += f64::from((now - last).length());
+            self.last = Some(now);
+        }
+    }
+
+    fn is_finished(&self, world: &World) -> Option<Outcome> {
+        let t = world.target?;
+        if !world.objects[t].movable {
+            return None;
+        }
+        if self.on_goal {
+            if let (Some(goal), Some(r)) = (world.goal(), self.goal_radius) {
+                if (world.object_center(t) - goal).length() <= r {
+                    return Some(Outcome::Success);
+                }
+            }
+        }
+        if self.on_wall
+            && world
+                .physics
+                .touches(world.objects[t].body, |tag| matches!(tag, Tag::Wall(_)))
+        {
+            return Some(Outcome::Wall);
+        }
+        None
+    }
+
+    fn finish(&self, world: &World, r: &mut RunResult) {
+        if let Some(t) = world.target {
+            let now = world.object_center(t);
+            r.goal_distance_m = world.goal().map(|g| f64::from((now - g).length()));
+            r.object_path_m = self.path_m;
+            let disp = f64::from((now - world.objects[t].start).length());
+            r.path_efficiency = if self.path_m > 1e-9 {
+                (disp / self.path_m).min(1.0)
+            } else {
+                0.0
+            };
+        }
+    }
+}
+
+/// Options of one run.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Overrides of the scenario.
+    pub overrides: Overrides,
+    /// Record trajectories.
+    pub record: bool,
+    /// With `record`: keep robot poses every this many ticks (object: every tick).
+    pub robot_every: u64,
+}
+
+/// A run in progress: a world, its hooks and its clock. [`run`] drives one to the end; a viewer
+/// steps it tick by tick.
+pub struct Run {
+    /// The world.
+    pub world: World,
+    hooks: Vec<Box<dyn LoopFunctions>>,
+    max_ticks: u64,
+    traj: Option<Trajectories>,
+    robot_every: u64,
+    outcome: Option<Outcome>,
+    goal_radius: Option<f32>,
+    name: String,
+    started: std::time::Instant,
+}
+
+impl Run {
+    /// Builds the world and the standard hooks (transport and filling metrics).
+    pub fn new(sc: &Scenario, opts: &RunOptions) -> Result<Run, ScenarioError> {
+        let started = std::time::Instant::now();
+        let world = World::new(sc, &opts.overrides)?;
+        let transport = TransportHooks::new(sc, &world);
+        let goal_radius = transport.goal_radius();
+        let hooks: Vec<Box<dyn LoopFunctions>> = vec![
+            Box::new(transport),
+            Box::new(crate::metrics::FillHooks::new(sc, &world)),
+        ];
+        let duration = opts.overrides.duration_s.unwrap_or(sc.spec.run.duration_s);
+        let max_ticks = (f64::from(duration) / f64::from(world.tick_s)).round() as u64;
+        let mut traj = opts.record.then(Trajectories::default);
+        if let Some(tr) = traj.as_mut() {
+            record(&world, tr, true);
+        }
+        Ok(Run {
+            world,
+            hooks,
+            max_ticks,
+            traj,
+            robot_every: opts.robot_every.max(1),
+            outcome: None,
+            goal_radius,
+            name: sc.name.clone(),
+            started,
+        })
+    }
+
+    /// The outcome, once the run is over.
+    pub fn outcome(&self) -> Option<Outcome> {
+        self.outcome
+    }
+
+    /// The goal radius of the success rule (m).
+    pub fn goal_radius(&self) -> Option<f32> {
+        self.goal_radius
+    }
+
+    /// Advances one tick unless the run is over; returns the outcome once it is.
+    pub fn step(&mut self) -> Option<Outcome> {
+        if self.outcome.is_some() {
+            return self.outcome;
+        }
+        self.world.step();
+        for h in self.hooks.iter_mut() {
+            h.post_step(&self.world);
+        }
+        if let Some(tr) = self.traj.as_mut() {
+            record(
+                &self.world,
+                tr,
+                self.world.tick.is_multiple_of(self.robot_every),
+            );
+        }
+        self.outcome = self.hooks.iter().find_map(|h| h.is_finished(&self.world));
+        if self.outcome.is_none() && self.world.tick >= self.max_ticks {
+            self.outcome = Some(Outcome::Timeout);
+        }
+        self.outcome
+    }
+
+    /// Steps until the run is over.
+    pub fn run_to_end(&mut self) -> Outcome {
+        loop {
+            if let Some(o) = self.step() {
+                return o;
+            }
+        }
+    }
+
+    /// The result so far (the outcome reads `timeout` while the run goes on).
+    pub fn result(&self) -> RunResult {
+        let world = &self.world;
+        let mut result = RunResult {
+            scenario: self.name.clone(),
+            seed: world.seed,
+            outcome: self.outcome.unwrap_or(Outcome::Timeout),
+            sim_time_s: world.time_s,
+            ticks: world.tick,
+            robots: world.robots.len(),
+            controller: controller_names(world),
+            goal_distance_m: None,
+            object_path_m: 0.0,
+            path_efficiency: 0.0,
+            object_robots: None,
+            fill_time_s: None,
+            convexity_before: None,
+            convexity_after: None,
+            cavity_filled: None,
+            wall_time_s: 0.0,
+        };
+        for h in &self.hooks {
+            h.finish(world, &mut result);
+        }
+        result.wall_time_s = self.started.elapsed().as_secs_f64();
+        result
+    }
+
+    /// The recorded trajectories, if recording.
+    pub fn trajectories(&self) -> Option<&Trajectories> {
+        self.traj.as_ref()
+    }
+}
+
+/// Runs a scenario to its end. Returns the result and, if asked, the trajectories.
+pub fn run(
+    sc: &Scenario,
+    opts: &RunOptions,
+) -> Result<(RunResult, Option<Trajectories>), ScenarioError> {
+    let mut r = Run::new(sc, opts)?;
+    r.run_to_end();
+    let result = r.result();
+    Ok((result, r.traj))
+}
+
+fn controller_names(world: &World) -> String {
+    let mut names: Vec<&str> = world.groups.iter().map(|g| g.controller.as_str()).collect();
+    names.dedup();
+    names.join(",")
+}
+
+fn record(world: &World, tr: &mut Trajectories, robots: bool) {
+    let t = world.time_s;
+    if let Some(i) = world.target {
+        let c = world.object_center(i);
+        let p = world.object_pose(i);
+        tr.object.push(Sample {
+            t,
+            id: None,
+            x: c.x,
+            y: c.y,
+            theta: p.theta,
+        });
+    }
+    if robots {
+        for (k, r) in world.robots.iter().enumerate() {
+            if r.body.is_some() {
+                let p = world.robot_pose(k);
+                tr.robots.push(Sample {
+                    t,
+                    id: Some(k as u32),
+                    x: p.x,
+                    y: p.y,
+                    theta: p.theta,
+                });
+            }
+        }
+    }
+}

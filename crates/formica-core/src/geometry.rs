@@ -1,0 +1,417 @@
+//! Plane geometry: poses, angles, shape descriptions and polygon checks.
+//!
+//! Lengths are metres, angles radians unless a name says `_deg`. The heavy lifting (convex
+//! decomposition, hulls, point tests) is done by parry2d; this module only adapts it to the
+//! shapes that scenario files describe.
+
+use rapier2d::parry::shape::{Compound, SharedShape, TriMesh};
+use rapier2d::parry::transformation::convex_hull as convex_hull2;
+use serde::{Deserialize, Serialize};
+
+/// A 2D vector in metres (re-exported from the physics engine's math library).
+pub type Vec2 = rapier2d::math::Vector;
+
+/// Position and heading of something on the floor.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Pose {
+    /// x in metres.
+    pub x: f32,
+    /// y in metres.
+    pub y: f32,
+    /// Heading in radians, counter-clockwise from +x.
+    pub theta: f32,
+}
+
+impl Pose {
+    /// Builds a pose from a position and heading.
+    pub fn new(x: f32, y: f32, theta: f32) -> Self {
+        Self { x, y, theta }
+    }
+    /// The position as a vector.
+    pub fn position(&self) -> Vec2 {
+        Vec2::new(self.x, self.y)
+    }
+    /// Transforms a point given in this pose's frame to the world frame.
+    pub fn world_from_local(&self, p: Vec2) -> Vec2 {
+        let (s, c) = self.theta.sin_cos();
+        Vec2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
+    }
+    /// Transforms a world point into this pose's frame.
+    pub fn local_from_world(&self, p: Vec2) -> Vec2 {
+        let (s, c) = self.theta.sin_cos();
+        let d = Vec2::new(p.x - self.x, p.y - self.y);
+        Vec2::new(c * d.x + s * d.y, -s * d.x + c * d.y)
+    }
+}
+
+/// Wraps an angle to (-pi, pi].
+pub fn wrap_angle(a: f32) -> f32 {
+    let two_pi = std::f32::consts::TAU;
+    let mut r = a % two_pi;
+    if r > std::f32::consts::PI {
+        r -= two_pi;
+    } else if r <= -std::f32::consts::PI {
+        r += two_pi;
+    }
+    r
+}
+
+/// A primitive shape, in its own frame (centred on its origin).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Primitive {
+    /// An axis-aligned box `[width, depth]`, centred.
+    Box([f32; 2]),
+    /// A disc of the given radius.
+    Disc(f32),
+    /// A simple polygon (concave allowed), vertices in order, at least 3.
+    Polygon(Vec<[f32; 2]>),
+    /// A regular polygon: `{ sides = 6, radius = 0.3 }` (circumradius).
+    Regular {
+        /// Number of sides (3 or more).
+        sides: u32,
+        /// Distance from centre to each vertex.
+        radius: f32,
+    },
+}
+
+/// One part of a composite shape, placed in the object's frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Part {
+    /// The part's shape.
+    pub shape: Primitive,
+    /// Offset of the part's centre from the object's origin.
+    pub at: [f32; 2],
+    /// Rotation of the part, in degrees.
+    pub yaw_deg: f32,
+}
+
+/// A geometry error, described for humans.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ShapeError(pub String);
+
+impl Primitive {
+    /// Checks the primitive is well formed (positive sizes, simple polygon).
+    pub fn validate(&self) -> Result<(), ShapeError> {
+        match self {
+            Primitive::Box([w, h]) => {
+                if !(*w > 0.0 && *h > 0.0 && w.is_finite() && h.is_finite()) {
+                    return Err(ShapeError(format!(
+                        "box size must be two positive numbers, got [{w}, {h}]"
+                    )));
+                }
+            }
+            Primitive::Disc(r) => {
+                if !(*r > 0.0 && r.is_finite()) {
+                    return Err(ShapeError(format!("disc radius must be positive, got {r}")));
+                }
+            }
+            Primitive::Polygon(v) => {
+                let pts: Vec<Vec2> = v.iter().map(|p| Vec2::new(p[0], p[1])).collect();
+                check_simple_polygon(&pts)?;
+            }
+            Primitive::Regular { sides, radius } => {
+                if *sides < 3 || !(*radius > 0.0) {
+                    return Err(ShapeError(format!(
+                        "regular polygon needs sides >= 3 and radius > 0, got sides = {sides}, radius = {radius}"
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The outline of the primitive as a counter-clockwise polygon (discs approximated with
+    /// `disc_segments` vertices).
+    pub fn outline(&self, disc_segments: usize) -> Vec<Vec2> {
+        match self {
+            Primitive::Box([w, h]) => {
+                let (a, b) = (w / 2.0, h / 2.0);
+                vec![
+                    Vec2::new(-a, -b),
+                    Vec2::new(a, -b),
+                    Vec2::new(a, b),
+                    Vec2::new(-a, b),
+                ]
+            }
+            Primitive::Disc(r) => regular_outline(disc_segments, *r),
+            Primitive::Polygon(v) => {
+                let mut pts: Vec<Vec2> = v.iter().map(|p| Vec2::new(p[0], p[1])).collect();
+                if signed_area(&pts) < 0.0 {
+                    pts.reverse();
+                }
+                pts
+            }
+            Primitive::Regular { sides, radius } => regular_outline(*sides as usize, *radius),
+        }
+    }
+
+    /// The collision shape of this primitive.
+    pub fn shared_shape(&self) -> Result<SharedShape, ShapeError> {
+        self.validate()?;
+        Ok(match self {
+            Primitive::Box([w, h]) => SharedShape::cuboid(w / 2.0, h / 2.0),
+            Primitive::Disc(r) => SharedShape::ball(*r),
+            Primitive::Regular { .. } => SharedShape::convex_polyline(self.outline(0))
+                .ok_or_else(|| ShapeError("degenerate regular polygon".into()))?,
+            Primitive::Polygon(_) => {
+                let pts = self.outline(0);
+                if is_convex(&pts) {
+                    SharedShape::convex_polyline(pts)
+                        .ok_or_else(|| ShapeError("degenerate polygon".into()))?
+                } else {
+                    let mesh = TriMesh::from_polygon(pts)
+                        .ok_or_else(|| ShapeError("polygon could not be triangulated".into()))?;
+                    let compound = Compound::decompose_trimesh(&mesh).ok_or_else(|| {
+                        ShapeError("polygon could not be split into convex parts".into())
+                    })?;
+                    SharedShape::new(compound)
+                }
+            }
+        })
+    }
+}
+
+fn regular_outline(n: usize, r: f32) -> Vec<Vec2> {
+    (0..n)
+        .map(|i| {
+            let a = std::f32::consts::TAU * i as f32 / n as f32;
+            Vec2::new(r * a.cos(), r * a.sin())
+        })
+        .collect()
+}
+
+/// Builds one collision shape from parts placed in a common frame.
+pub fn compound_shape(parts: &[Part]) -> Result<SharedShape, ShapeError> {
+    if parts.is_empty() {
+        return Err(ShapeError("an object needs at least one part".into()));
+    }
+    if parts.len() == 1 && parts[0].at == [0.0, 0.0] && parts[0].yaw_deg == 0.0 {
+        return parts[0].shape.shared_shape();
+    }
+    let mut shapes = Vec::with_capacity(parts.len());
+    for p in parts {
+        let s = p.shape.shared_shape()?;
+        let pose = rapier2d::math::Pose::new(Vec2::new(p.at[0], p.at[1]), p.yaw_deg.to_radians());
+        // A compound cannot nest a compound: flatten concave polygons.
+        if let Some(c) = s.as_compound() {
+            for (sub_pose, sub) in c.shapes() {
+                shapes.push((pose * *sub_pose, sub.clone()));
+            }
+        } else {
+            shapes.push((pose, s));
+        }
+    }
+    Ok(SharedShape::compound(shapes))
+}
+
+/// Outlines of every part, in the common frame (discs with `disc_segments` vertices).
+pub fn part_outlines(parts: &[Part], disc_segments: usize) -> Vec<Vec<Vec2>> {
+    parts
+        .iter()
+        .map(|p| {
+            let pose = Pose::new(p.at[0], p.at[1], p.yaw_deg.to_radians());
+            p.shape
+                .outline(disc_segments)
+                .into_iter()
+                .map(|v| pose.world_from_local(v))
+                .collect()
+        })
+        .collect()
+}
+
+/// Signed area of a polygon (positive when counter-clockwise).
+pub fn signed_area(pts: &[Vec2]) -> f32 {
+    let n = pts.len();
+    let mut a = 0.0f64;
+    for i in 0..n {
+        let p = pts[i];
+        let q = pts[(i + 1) % n];
+        a += p.x as f64 * q.y as f64 - q.x as f64 * p.y as f64;
+    }
+    (a / 2.0) as f32
+}
+
+/// Whether a polygon (either orientation) is convex.
+pub fn is_convex(pts: &[Vec2]) -> bool {
+    let n = pts.len();
+    if n < 3 {
+        return false;
+    }
+    let mut sign = 0.0f32;
+    for i in 0..n {
+        let a = pts[i];
+        let b = pts[(i + 1) % n];
+        let c = pts[(i + 2) % n];
+        let cross = (b - a).perp_dot(c - b);
+        if cross.abs() < 1e-9 {
+            continue;
+        }
+        if sign == 0.0 {
+            sign = cross.signum();
+        } else if cross.signum() != sign {
+            return false;
+        }
+    }
+    true
+}
+
+fn segments_cross(a: Vec2, b: Vec2, c: Vec2, d: Vec2) -> bool {
+    let o = |p: Vec2, q: Vec2, r: Vec2| (q - p).perp_dot(r - p);
+    let (d1, d2, d3, d4) = (o(c, d, a), o(c, d, b), o(a, b, c), o(a, b, d));
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
+        return true;
+    }
+    let on = |p: Vec2, q: Vec2, r: Vec2, o: f32| {
+        o == 0.0
+            && r.x >= p.x.min(q.x)
+            && r.x <= p.x.max(q.x)
+            && r.y >= p.y.min(q.y)
+            && r.y <= p.y.max(q.y)
+    };
+    on(c, d, a, d1) || on(c, d, b, d2) || on(a, b, c, d3) || on(a, b, d, d4)
+}
+
+/// Checks that a polygon is simple: at least three distinct vertices, non-zero area, and no
+/// two non-adjacent edges touching.
+pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
+    let n = pts.len();
+    if n < 3 {
+        return Err(ShapeError(format!(
+            "a polygon needs at least 3 vertices, got {n}"
+        )));
+    }
+    if pts.iter().any(|p| !p.x.is_finite() || !p.y.is_finite()) {
+        return Err(ShapeError("polygon vertices must be finite numbers".into()));
+    }
+    for i in 0..n {
+        if (pts[i] - pts[(i + 1) % n]).length() < 1e-6 {
+            return Err(ShapeError(format!(
+                "polygon vertices {} and {} coincide",
+                i + 1,
+                (i + 1) % n + 1
+            )));
+        }
+    }
+    for i in 0..n {
+        for j in (i + 1)..n {
+            let adjacent = j == i + 1 || (i == 0 && j == n - 1);
+            if adjacent {
+                continue;
+            }
+            if segments_cross(pts[i], pts[(i + 1) % n], pts[j], pts[(j + 1) % n]) {
+                return Err(ShapeError(format!(
+                    "polygon is self-intersecting: edge {}-{} crosses edge {}-{}",
+                    i + 1,
+                    (i + 1) % n + 1,
+                    j + 1,
+                    (j + 1) % n + 1
+                )));
+            }
+        }
+    }
+    if signed_area(pts).abs() < 1e-8 {
+        return Err(ShapeError("polygon has zero area".into()));
+    }
+    Ok(())
+}
+
+/// Convex hull of a point set, counter-clockwise.
+pub fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
+    if points.len() < 3 {
+        return points.to_vec();
+    }
+    let mut hull = convex_hull2(points);
+    if signed_area(&hull) < 0.0 {
+        hull.reverse();
+    }
+    hull
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn self_intersecting_bowtie_is_rejected() {
+        let bowtie = [[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]];
+        let err = Primitive::Polygon(bowtie.to_vec()).validate().unwrap_err();
+        assert!(err.0.contains("self-intersecting"), "{err}");
+    }
+
+    #[test]
+    fn concave_polygon_decomposes_and_keeps_its_area() {
+        // An L: area 0.5*0.2 + 0.2*0.5 = 0.2 minus the overlap 0.04 = 0.16.
+        let l = Primitive::Polygon(vec![
+            [0.0, 0.0],
+            [0.5, 0.0],
+            [0.5, 0.2],
+            [0.2, 0.2],
+            [0.2, 0.5],
+            [0.0, 0.5],
+        ]);
+        let shape = l.shared_shape().unwrap();
+        let mp = shape.mass_properties(1.0);
+        assert!((mp.mass() - 0.16).abs() < 1e-4, "area {}", mp.mass());
+        assert!(shape.as_compound().is_some());
+    }
+
+    #[test]
+    fn hull_of_u_covers_the_cavity() {
+        let u = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.8, 1.0),
+            Vec2::new(0.8, 0.2),
+            Vec2::new(0.2, 0.2),
+            Vec2::new(0.2, 1.0),
+            Vec2::new(0.0, 1.0),
+        ];
+        assert!(!is_convex(&u));
+        let hull = convex_hull(&u);
+        assert!((signed_area(&hull) - 1.0).abs() < 1e-5);
+    }
+
+    proptest! {
+        #[test]
+        fn wrap_angle_stays_in_range(a in -100.0f32..100.0) {
+            let w = wrap_angle(a);
+            prop_assert!(w > -std::f32::consts::PI - 1e-5 && w <= std::f32::consts::PI + 1e-5);
+            prop_assert!(((a - w) / std::f32::consts::TAU - ((a - w) / std::f32::consts::TAU).round()).abs() < 1e-3);
+        }
+
+        #[test]
+        fn pose_round_trip(x in -5.0f32..5.0, y in -5.0f32..5.0, t in -4.0f32..4.0,
+                           px in -5.0f32..5.0, py in -5.0f32..5.0) {
+            let pose = Pose::new(x, y, t);
+            let p = Vec2::new(px, py);
+            let back = pose.world_from_local(pose.local_from_world(p));
+            prop_assert!((back - p).length() < 1e-4);
+        }
+
+        #[test]
+        fn regular_polygons_are_convex_with_hull_equal_to_self(n in 3u32..20, r in 0.05f32..2.0) {
+            let pts = Primitive::Regular { sides: n, radius: r }.outline(0);
+            prop_assert!(is_convex(&pts));
+            prop_assert!(check_simple_polygon(&pts).is_ok());
+            let hull = convex_hull(&pts);
+            prop_assert!((signed_area(&hull) - signed_area(&pts)).abs() < 1e-4 * r * r + 1e-6);
+        }
+
+        #[test]
+        fn hull_area_is_at_least_polygon_area(
+            pts in proptest::collection::vec((-1.0f32..1.0, -1.0f32..1.0), 3..12)
+        ) {
+            let pts: Vec<Vec2> = pts.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
+            if check_simple_polygon(&pts).is_ok() {
+                let hull = convex_hull(&pts);
+                prop_assert!(signed_area(&hull) + 1e-5 >= signed_area(&pts).abs());
+            }
+        }
+    }
+}

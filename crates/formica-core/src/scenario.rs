@@ -1,0 +1,817 @@
+//! Scenario files: one readable TOML file describes an experiment (arena, lights, objects,
+//! robots, run settings and stop rules).
+//!
+//! Every error names the file, the line and what was expected. See the README for the full
+//! reference; `scenarios/` holds worked examples.
+
+use crate::geometry::{Part, Primitive};
+use crate::robot::ModelKind;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::ops::Range;
+use toml::Spanned;
+
+/// A scenario file that failed to load or validate.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {message}")]
+    Io {
+        /// File name.
+        file: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// The file is malformed or describes something impossible.
+    #[error("{file}:{line}:{column}: {message}")]
+    Invalid {
+        /// File name.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What was wrong and what was expected.
+        message: String,
+    },
+}
+
+/// An LED / body colour, as cameras see it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Color {
+    /// LED off (invisible to cameras).
+    #[default]
+    Off,
+    /// Red.
+    Red,
+    /// Green.
+    Green,
+    /// Blue.
+    Blue,
+    /// Yellow.
+    Yellow,
+    /// Magenta.
+    Magenta,
+    /// Cyan.
+    Cyan,
+    /// Orange.
+    Orange,
+    /// White.
+    White,
+    /// Grey (walls).
+    Grey,
+}
+
+impl Color {
+    /// 8-bit RGB for drawing.
+    pub fn rgb(self) -> [u8; 3] {
+        match self {
+            Color::Off => [40, 40, 40],
+            Color::Red => [220, 40, 40],
+            Color::Green => [40, 170, 60],
+            Color::Blue => [40, 90, 230],
+            Color::Yellow => [230, 200, 30],
+            Color::Magenta => [200, 50, 200],
+            Color::Cyan => [40, 200, 210],
+            Color::Orange => [240, 140, 30],
+            Color::White => [245, 245, 245],
+            Color::Grey => [128, 128, 128],
+        }
+    }
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Color::Off => "off",
+            Color::Red => "red",
+            Color::Green => "green",
+            Color::Blue => "blue",
+            Color::Yellow => "yellow",
+            Color::Magenta => "magenta",
+            Color::Cyan => "cyan",
+            Color::Orange => "orange",
+            Color::White => "white",
+            Color::Grey => "grey",
+        }
+    }
+}
+
+/// The rectangular arena, walled on all four sides.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Arena {
+    /// Usable size `[x, y]` in metres; walls are centred on its border.
+    pub size: [f32; 2],
+    /// Centre of the arena.
+    #[serde(default)]
+    pub center: [f32; 2],
+    /// Wall thickness (m).
+    #[serde(default = "default_wall_thickness")]
+    pub wall_thickness: f32,
+    /// Wall height (m).
+    #[serde(default = "default_wall_height")]
+    pub wall_height: f32,
+}
+
+fn default_wall_thickness() -> f32 {
+    0.1
+}
+fn default_wall_height() -> f32 {
+    0.5
+}
+
+/// An extra static wall or obstacle box.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallSpec {
+    /// Centre.
+    pub at: [f32; 2],
+    /// Size `[x, y]` before rotation.
+    pub size: [f32; 2],
+    /// Rotation in degrees.
+    #[serde(default)]
+    pub yaw_deg: f32,
+    /// Height (m).
+    #[serde(default = "default_wall_height")]
+    pub height: f32,
+}
+
+/// A light: the goal of transport, or the object beacon of filling.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    /// Floor position.
+    pub at: [f32; 2],
+    /// Height above the floor (m).
+    #[serde(default = "default_light_height")]
+    pub height: f32,
+    /// Intensity (ARGoS units; readings fall to zero at 2.5 x intensity metres).
+    #[serde(default = "default_intensity")]
+    pub intensity: f32,
+    /// Whether this light marks the transport goal (default: the first light).
+    #[serde(default)]
+    pub goal: Option<bool>,
+}
+
+fn default_light_height() -> f32 {
+    0.5
+}
+fn default_intensity() -> f32 {
+    10.0
+}
+
+/// `{ sides = 6, radius = 0.3 }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegularSpec {
+    /// Number of sides.
+    pub sides: u32,
+    /// Circumradius (m).
+    pub radius: f32,
+}
+
+/// One shape: exactly one of `box`, `disc`, `polygon`, `regular`, optionally placed with
+/// `at` and `yaw_deg` in the object's frame.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PartSpec {
+    /// Box `[width, depth]`.
+    #[serde(rename = "box", default, skip_serializing_if = "Option::is_none")]
+    pub box_: Option<[f32; 2]>,
+    /// Disc radius.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disc: Option<f32>,
+    /// Simple polygon (concave allowed), vertices in order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polygon: Option<Vec<[f32; 2]>>,
+    /// Regular polygon.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub regular: Option<RegularSpec>,
+    /// Offset from the object's origin.
+    #[serde(default)]
+    pub at: [f32; 2],
+    /// Rotation (degrees).
+    #[serde(default)]
+    pub yaw_deg: f32,
+}
+
+impl PartSpec {
+    /// The validated part.
+    pub fn to_part(&self) -> Result<Part, String> {
+        let mut shapes = Vec::new();
+        if let Some(b) = self.box_ {
+            shapes.push(Primitive::Box(b));
+        }
+        if let Some(r) = self.disc {
+            shapes.push(Primitive::Disc(r));
+        }
+        if let Some(p) = &self.polygon {
+            shapes.push(Primitive::Polygon(p.clone()));
+        }
+        if let Some(r) = &self.regular {
+            shapes.push(Primitive::Regular {
+                sides: r.sides,
+                radius: r.radius,
+            });
+        }
+        if shapes.len() != 1 {
+            return Err(format!(
+                "expected exactly one of `box`, `disc`, `polygon`, `regular`, found {}",
+                shapes.len()
+            ));
+        }
+        let shape = shapes.remove(0);
+        shape.validate().map_err(|e| e.0)?;
+        Ok(Part {
+            shape,
+            at: self.at,
+            yaw_deg: self.yaw_deg,
+        })
+    }
+}
+
+/// An object: static or movable, any polygonal shape.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSpec {
+    /// Name, for reports.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Position of the object's origin.
+    #[serde(default)]
+    pub at: [f32; 2],
+    /// Rotation (degrees) about `at`.
+    #[serde(default)]
+    pub yaw_deg: f32,
+    /// A single shape (use this or `parts`).
+    #[serde(default)]
+    pub shape: Option<Spanned<PartSpec>>,
+    /// A union of shapes in the object's frame (use this or `shape`).
+    #[serde(default)]
+    pub parts: Vec<Spanned<PartSpec>>,
+    /// Height (m): decides what it hides from light sensors.
+    #[serde(default = "default_object_height")]
+    pub height: f32,
+    /// Mass (kg).
+    #[serde(default = "default_mass")]
+    pub mass: f32,
+    /// Whether robots can push it.
+    #[serde(default = "default_true")]
+    pub movable: bool,
+    /// Floor friction coefficient: the floor resists with up to `floor_mu * mass * 9.81` N.
+    #[serde(default = "default_floor_mu")]
+    pub floor_mu: f32,
+    /// Colour seen by cameras.
+    #[serde(default = "default_object_color")]
+    pub color: Color,
+}
+
+fn default_object_height() -> f32 {
+    0.3
+}
+fn default_mass() -> f32 {
+    5.0
+}
+fn default_true() -> bool {
+    true
+}
+/// Default floor friction coefficient of objects (a 5 kg object then needs 4 Khepera IVs).
+pub const DEFAULT_FLOOR_MU: f32 = 0.1;
+fn default_floor_mu() -> f32 {
+    DEFAULT_FLOOR_MU
+}
+fn default_object_color() -> Color {
+    Color::Green
+}
+
+/// Where a group's robots start.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Placement {
+    /// Uniformly random, non-overlapping, in a rectangle.
+    Random {
+        /// Lower corner.
+        min: [f32; 2],
+        /// Upper corner.
+        max: [f32; 2],
+        /// Fixed heading in degrees (default: random).
+        #[serde(default)]
+        heading_deg: Option<f32>,
+    },
+    /// A grid of `columns` along x, rows along y, centred on `center`.
+    Grid {
+        /// Centre of the grid.
+        center: [f32; 2],
+        /// Distance between neighbours (m).
+        spacing: f32,
+        /// Robots per row along x (default: a square-ish grid).
+        #[serde(default)]
+        columns: Option<usize>,
+        /// Heading in degrees.
+        #[serde(default)]
+        heading_deg: f32,
+    },
+    /// Explicit `[x, y, heading_deg]` per robot.
+    Poses(Vec<[f32; 3]>),
+}
+
+/// When robots enter the arena.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Release {
+    /// Seconds between releases (0: all at once). Robots enter in placement order.
+    #[serde(default)]
+    pub interval_s: f32,
+    /// Time of the first release.
+    #[serde(default)]
+    pub start_s: f32,
+}
+
+/// Sensor options of a robot group.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorOptions {
+    /// Standard deviation of Gaussian noise on proximity readings.
+    #[serde(default)]
+    pub proximity_noise: f32,
+    /// Standard deviation of Gaussian noise on light readings.
+    #[serde(default)]
+    pub light_noise: f32,
+    /// Standard deviation of position noise (m), for positioning and the beacon.
+    #[serde(default)]
+    pub position_noise: f32,
+    /// Standard deviation of heading noise (rad).
+    #[serde(default)]
+    pub heading_noise: f32,
+    /// Standard deviation of camera distance noise (relative) and bearing noise (rad).
+    #[serde(default)]
+    pub camera_noise: f32,
+    /// Range of the colour-blob camera (m).
+    #[serde(default = "default_camera_range")]
+    pub camera_range: f32,
+}
+
+fn default_camera_range() -> f32 {
+    1.5
+}
+
+impl Default for SensorOptions {
+    fn default() -> Self {
+        Self {
+            proximity_noise: 0.0,
+            light_noise: 0.0,
+            position_noise: 0.0,
+            heading_noise: 0.0,
+            camera_noise: 0.0,
+            camera_range: default_camera_range(),
+        }
+    }
+}
+
+/// A group of identical robots.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotGroup {
+    /// Robot model.
+    #[serde(default)]
+    pub model: ModelKind,
+    /// Number of robots (default: the number of explicit poses).
+    #[serde(default)]
+    pub count: Option<usize>,
+    /// Controller name (see `formica::controllers::NAMES`).
+    pub controller: Spanned<String>,
+    /// Controller parameters.
+    #[serde(default)]
+    pub params: Option<Spanned<toml::Table>>,
+    /// Start positions.
+    pub placement: Spanned<Placement>,
+    /// Release schedule.
+    #[serde(default)]
+    pub release: Release,
+    /// Sensor noise and ranges.
+    #[serde(default)]
+    pub sensors: SensorOptions,
+}
+
+/// Run settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSpec {
+    /// Control ticks per second.
+    #[serde(default = "default_tick_hz")]
+    pub tick_hz: f32,
+    /// Physics steps per tick.
+    #[serde(default = "default_substeps")]
+    pub substeps: u32,
+    /// Simulated time limit (s).
+    #[serde(default = "default_duration")]
+    pub duration_s: f32,
+    /// Default seed.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+}
+
+fn default_tick_hz() -> f32 {
+    10.0
+}
+/// Default physics steps per control tick.
+pub const DEFAULT_SUBSTEPS: u32 = 2;
+fn default_substeps() -> u32 {
+    DEFAULT_SUBSTEPS
+}
+fn default_duration() -> f32 {
+    1200.0
+}
+fn default_seed() -> u64 {
+    1
+}
+
+impl Default for RunSpec {
+    fn default() -> Self {
+        Self {
+            tick_hz: default_tick_hz(),
+            substeps: default_substeps(),
+            duration_s: default_duration(),
+            seed: default_seed(),
+        }
+    }
+}
+
+/// Stop rules.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopSpec {
+    /// Stop with `success` when the object's centre is within this distance of the goal's floor
+    /// point. Default (Queiroz & MacRae): (goal_size + object size) / 2 + 0.05, object size being
+    /// its bounding diagonal.
+    #[serde(default)]
+    pub goal_radius: Option<f32>,
+    /// Size of the goal region (m), for the default goal radius.
+    #[serde(default = "default_goal_size")]
+    pub goal_size: f32,
+    /// Stop with `success` when the object reaches the goal.
+    #[serde(default = "default_true")]
+    pub on_goal: bool,
+    /// Stop with `wall` when the object touches a wall.
+    #[serde(default = "default_true")]
+    pub on_wall: bool,
+    /// Stop with `success` once every robot is released and this fraction of them is attached
+    /// to the object (filling experiments). Off unless set.
+    #[serde(default)]
+    pub on_filled: Option<f32>,
+}
+
+fn default_goal_size() -> f32 {
+    0.2
+}
+
+impl Default for StopSpec {
+    fn default() -> Self {
+        Self {
+            goal_radius: None,
+            goal_size: default_goal_size(),
+            on_goal: true,
+            on_wall: true,
+            on_filled: None,
+        }
+    }
+}
+
+/// The whole file, as written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioSpec {
+    /// Name used in results (default: the file stem).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The arena.
+    pub arena: Arena,
+    /// Extra walls.
+    #[serde(default)]
+    pub walls: Vec<WallSpec>,
+    /// Lights.
+    #[serde(default)]
+    pub lights: Vec<LightSpec>,
+    /// Objects.
+    #[serde(default)]
+    pub objects: Vec<Spanned<ObjectSpec>>,
+    /// Robot groups.
+    #[serde(default)]
+    pub robots: Vec<Spanned<RobotGroup>>,
+    /// Run settings.
+    #[serde(default)]
+    pub run: RunSpec,
+    /// Stop rules.
+    #[serde(default)]
+    pub stop: StopSpec,
+}
+
+/// A loaded, validated scenario together with its source text (for error positions).
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    /// What the file says.
+    pub spec: ScenarioSpec,
+    /// File name, for messages.
+    pub file: String,
+    /// Name for results.
+    pub name: String,
+    text: String,
+}
+
+impl fmt::Display for Scenario {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.name)
+    }
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
+    (line, col)
+}
+
+impl Scenario {
+    /// Reads and validates a scenario file.
+    pub fn load(path: &std::path::Path) -> Result<Scenario, ScenarioError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        Self::parse(&text, &file)
+    }
+
+    /// Parses and validates scenario text; `file` names it in errors.
+    pub fn parse(text: &str, file: &str) -> Result<Scenario, ScenarioError> {
+        let spec: ScenarioSpec = toml::from_str(text).map_err(|e| {
+            let (line, column) = line_col(text, e.span().map_or(0, |s| s.start));
+            ScenarioError::Invalid {
+                file: file.to_string(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        let name = spec.name.clone().unwrap_or_else(|| {
+            std::path::Path::new(file)
+                .file_stem()
+                .map_or_else(|| file.to_string(), |s| s.to_string_lossy().into_owned())
+        });
+        let sc = Scenario {
+            spec,
+            file: file.to_string(),
+            name,
+            text: text.to_string(),
+        };
+        sc.validate()?;
+        Ok(sc)
+    }
+
+    /// An error positioned at a span of the source.
+    pub fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> ScenarioError {
+        let (line, column) = line_col(&self.text, span.start);
+        ScenarioError::Invalid {
+            file: self.file.clone(),
+            line,
+            column,
+            message: message.into(),
+        }
+    }
+
+    /// The source text.
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// The parts of object `i`, validated.
+    pub fn object_parts(&self, i: usize) -> Result<Vec<Part>, ScenarioError> {
+        let o = &self.spec.objects[i];
+        let obj = o.get_ref();
+        let label = format!("objects[{i}]{}", name_suffix(&obj.name));
+        match (&obj.shape, obj.parts.is_empty()) {
+            (Some(_), false) => Err(self.error_at(
+                o.span(),
+                format!("{label}: give either `shape` or `parts`, not both"),
+            )),
+            (None, true) => Err(self.error_at(
+                o.span(),
+                format!("{label}: expected a `shape` (box, disc, polygon or regular) or `parts`"),
+            )),
+            (Some(s), true) => Ok(vec![s
+                .get_ref()
+                .to_part()
+                .map_err(|m| self.error_at(s.span(), format!("{label}.shape: {m}")))?]),
+            (None, false) => obj
+                .parts
+                .iter()
+                .enumerate()
+                .map(|(k, p)| {
+                    p.get_ref()
+                        .to_part()
+                        .map_err(|m| self.error_at(p.span(), format!("{label}.parts[{k}]: {m}")))
+                })
+                .collect(),
+        }
+    }
+
+    /// Number of robots in a group.
+    pub fn group_count(&self, g: usize) -> usize {
+        let grp = self.spec.robots[g].get_ref();
+        match (&grp.count, &grp.placement.get_ref()) {
+            (Some(n), _) => *n,
+            (None, Placement::Poses(p)) => p.len(),
+            (None, _) => 0,
+        }
+    }
+
+    /// Total number of robots.
+    pub fn robot_count(&self) -> usize {
+        (0..self.spec.robots.len())
+            .map(|g| self.group_count(g))
+            .sum()
+    }
+
+    /// Index of the goal light, if any.
+    pub fn goal_light(&self) -> Option<usize> {
+        let l = &self.spec.lights;
+        l.iter()
+            .position(|x| x.goal == Some(true))
+            .or_else(|| (!l.is_empty() && l[0].goal != Some(false)).then_some(0))
+    }
+
+    fn validate(&self) -> Result<(), ScenarioError> {
+        let s = &self.spec;
+        let top = |m: &str| self.error_at(0..0, m.to_string());
+        if !(s.arena.size[0] > 0.0 && s.arena.size[1] > 0.0) {
+            return Err(top("arena.size: expected two positive numbers"));
+        }
+        if !(s.run.tick_hz > 0.0 && s.run.tick_hz <= 1000.0) {
+            return Err(top("run.tick_hz: expected a number in (0, 1000]"));
+        }
+        if s.run.substeps == 0 || s.run.substeps > 100 {
+            return Err(top("run.substeps: expected an integer from 1 to 100"));
+        }
+        if !(s.run.duration_s > 0.0) {
+            return Err(top("run.duration_s: expected a positive number"));
+        }
+        for (i, o) in s.objects.iter().enumerate() {
+            self.object_parts(i)?;
+            let obj = o.get_ref();
+            let label = format!("objects[{i}]{}", name_suffix(&obj.name));
+            if !(obj.mass > 0.0) || !(obj.height > 0.0) || !(obj.floor_mu >= 0.0) {
+                return Err(self.error_at(
+                    o.span(),
+                    format!("{label}: expected mass > 0, height > 0 and floor_mu >= 0"),
+                ));
+            }
+        }
+        for (g, grp) in s.robots.iter().enumerate() {
+            let gr = grp.get_ref();
+            if gr.count == Some(0) {
+                return Err(
+                    self.error_at(grp.span(), format!("robots[{g}]: count must be at least 1"))
+                );
+            }
+            match gr.placement.get_ref() {
+                Placement::Poses(p) => {
+                    if let Some(n) = gr.count {
+                        if n != p.len() {
+                            return Err(self.error_at(
+                                gr.placement.span(),
+                                format!("robots[{g}]: count = {n} but {} poses are given", p.len()),
+                            ));
+                        }
+                    }
+                }
+                Placement::Random { min, max, .. } => {
+                    if gr.count.is_none() {
+                        return Err(self.error_at(
+                            grp.span(),
+                            format!("robots[{g}]: expected `count` for random placement"),
+                        ));
+                    }
+                    if !(min[0] < max[0] && min[1] < max[1]) {
+                        return Err(self.error_at(
+                            gr.placement.span(),
+                            format!(
+                                "robots[{g}].placement.random: expected min < max on both axes"
+                            ),
+                        ));
+                    }
+                }
+                Placement::Grid { spacing, .. } => {
+                    if gr.count.is_none() {
+                        return Err(self.error_at(
+                            grp.span(),
+                            format!("robots[{g}]: expected `count` for grid placement"),
+                        ));
+                    }
+                    if !(*spacing > 0.0) {
+                        return Err(self.error_at(
+                            gr.placement.span(),
+                            format!("robots[{g}].placement.grid: expected spacing > 0"),
+                        ));
+                    }
+                }
+            }
+            if !crate::controllers::NAMES.contains(&gr.controller.get_ref().as_str()) {
+                return Err(self.error_at(
+                    gr.controller.span(),
+                    format!(
+                        "robots[{g}].controller: unknown controller `{}`, expected one of {}",
+                        gr.controller.get_ref(),
+                        crate::controllers::NAMES.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn name_suffix(name: &Option<String>) -> String {
+    name.as_ref()
+        .map_or(String::new(), |n| format!(" (\"{n}\")"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MIN: &str = r#"
+[arena]
+size = [6.0, 4.0]
+
+[[objects]]
+at = [-1.0, 0.0]
+shape = { box = [0.5, 0.5] }
+
+[[robots]]
+count = 3
+controller = "random-walk"
+placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
+"#;
+
+    fn err(text: &str) -> (usize, String) {
+        match Scenario::parse(text, "t.toml").unwrap_err() {
+            ScenarioError::Invalid {
+                line,
+                message,
+                file,
+                ..
+            } => {
+                assert_eq!(file, "t.toml");
+                (line, message)
+            }
+            e => panic!("unexpected {e}"),
+        }
+    }
+
+    #[test]
+    fn minimal_file_loads() {
+        let s = Scenario::parse(MIN, "t.toml").unwrap();
+        assert_eq!(s.robot_count(), 3);
+        assert_eq!(s.name, "t");
+    }
+
+    #[test]
+    fn unknown_key_names_line_and_expected_keys() {
+        let text = MIN.replace("shape = {", "colour = \"red\"\nshape = {");
+        let (line, msg) = err(&text);
+        assert_eq!(line, 7);
+        assert!(msg.contains("unknown field `colour`"), "{msg}");
+        assert!(msg.contains("color"), "{msg}");
+    }
+
+    #[test]
+    fn wrong_type_names_line() {
+        let text = MIN.replace("count = 3", "count = \"three\"");
+        let (line, msg) = err(&text);
+        assert_eq!(line, 10);
+        assert!(msg.contains("invalid type"), "{msg}");
+    }
+
+    #[test]
+    fn self_intersecting_polygon_is_rejected_at_its_line() {
+        let text = MIN.replace(
+            "shape = { box = [0.5, 0.5] }",
+            "shape = { polygon = [[0, 0], [1, 1], [1, 0], [0, 1]] }",
+        );
+        let (line, msg) = err(&text);
+        assert_eq!(line, 7);
+        assert!(msg.contains("self-intersecting"), "{msg}");
+    }
+
+    #[test]
+    fn unknown_controller_lists_known_ones() {
+        let text = MIN.replace("random-walk", "teleport");
+        let (line, msg) = err(&text);
+        assert_eq!(line, 11);
+        assert!(msg.contains("unknown controller `teleport`"), "{msg}");
+    }
+}

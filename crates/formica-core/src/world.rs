@@ -1,0 +1,649 @@
+//! The world: walls, objects, lights and robots built from a scenario, and the one function
+//! that holds the tick order ([`World::step`]): act, physics sub-steps, sense, control.
+
+use crate::controller::{Actuation, AttachCommand, Controller, ControllerFactory, RobotRng};
+use crate::controllers;
+use crate::geometry::{compound_shape, part_outlines, Part, Pose, Vec2};
+use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
+use crate::robot::RobotModel;
+use crate::scenario::{Color, Placement, Scenario, ScenarioError, SensorOptions};
+use crate::sensors::{sense, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds};
+use rand::{Rng, SeedableRng};
+
+/// A static wall or obstacle box.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wall {
+    /// Centre.
+    pub center: Vec2,
+    /// Size before rotation.
+    pub size: Vec2,
+    /// Rotation (rad).
+    pub yaw: f32,
+    /// Height (m).
+    pub height: f32,
+}
+
+/// An object in the world.
+#[derive(Debug, Clone)]
+pub struct Object {
+    /// Name for reports.
+    pub name: String,
+    /// Physics body.
+    pub body: BodyId,
+    /// Its parts, in the body frame.
+    pub parts: Vec<Part>,
+    /// Height (m).
+    pub height: f32,
+    /// Mass (kg).
+    pub mass: f32,
+    /// Whether it can move.
+    pub movable: bool,
+    /// Colour.
+    pub color: Color,
+    /// Its centre of mass at the start.
+    pub start: Vec2,
+}
+
+impl Object {
+    /// Outlines of the parts in the body frame (discs as 24-gons), for drawing and metrics.
+    pub fn outlines(&self) -> Vec<Vec<Vec2>> {
+        part_outlines(&self.parts, 24)
+    }
+}
+
+/// Per-group settings shared by its robots.
+pub struct Group {
+    /// Robot model.
+    pub model: RobotModel,
+    /// Sensor layout handed to controllers.
+    pub layout: SensorLayout,
+    /// Sensor options.
+    pub sensors: SensorOptions,
+    /// Controller name.
+    pub controller: String,
+    factory: ControllerFactory,
+}
+
+impl Group {
+    /// Which sensors this group's controllers read.
+    pub fn needs(&self) -> SensorNeeds {
+        self.factory.needs
+    }
+}
+
+/// One robot.
+pub struct Robot {
+    /// Index of its group.
+    pub group: usize,
+    /// Physics body, once released.
+    pub body: Option<BodyId>,
+    /// When it enters the arena (s).
+    pub release_s: f32,
+    /// Start pose.
+    pub start: Pose,
+    /// Latest readings.
+    pub readings: Readings,
+    /// What it asked for last.
+    pub action: Actuation,
+    /// LED colour now.
+    pub led: Color,
+    /// Attachment: joint and the object it belongs to.
+    pub attached: Option<(AttachId, usize)>,
+    /// Time it attached (s).
+    pub attached_at_s: Option<f32>,
+    /// Controller state name.
+    pub state: &'static str,
+    controller: Box<dyn Controller>,
+    rng: RobotRng,
+    sense_rng: RobotRng,
+    scratch: Scratch,
+}
+
+/// Options that override what a scenario file says.
+#[derive(Debug, Clone, Default)]
+pub struct Overrides {
+    /// Seed (default: the file's `run.seed`).
+    pub seed: Option<u64>,
+    /// Duration (s).
+    pub duration_s: Option<f32>,
+    /// Controller for every group.
+    pub controller: Option<String>,
+}
+
+/// The simulated world.
+pub struct World {
+    /// Rigid bodies and queries.
+    pub physics: Physics,
+    /// Walls (the four arena walls first).
+    pub walls: Vec<Wall>,
+    /// Objects.
+    pub objects: Vec<Object>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Index of the goal light.
+    pub goal_light: Option<usize>,
+    /// Robot groups.
+    pub groups: Vec<Group>,
+    /// Robots.
+    pub robots: Vec<Robot>,
+    /// Index of the object whose centre the beacon gives and whose transport is measured.
+    pub target: Option<usize>,
+    /// Simulated time (s).
+    pub time_s: f64,
+    /// Ticks done.
+    pub tick: u64,
+    /// Seconds per tick.
+    pub tick_s: f32,
+    /// Ticks per second.
+    pub tick_hz: f64,
+    /// Physics steps per tick.
+    pub substeps: u32,
+    /// Seed in use.
+    pub seed: u64,
+    /// Arena centre and size.
+    pub arena: (Vec2, Vec2),
+    near: Vec<Nearby>,
+}
+
+fn splitmix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A portable generator for stream `kind`, member `index`, of run `seed`.
+pub fn rng_stream(seed: u64, kind: u64, index: u64) -> RobotRng {
+    let a = splitmix(seed ^ splitmix(kind.wrapping_add(0x5151)));
+    let b = splitmix(a ^ splitmix(index.wrapping_add(0xA5A5)));
+    let c = splitmix(b);
+    RobotRng::from_seed(((u128::from(b) << 64) | u128::from(c)).to_le_bytes())
+}
+
+impl World {
+    /// Builds the world a scenario describes, for one seed.
+    pub fn new(sc: &Scenario, ov: &Overrides) -> Result<World, ScenarioError> {
+        let spec = &sc.spec;
+        let seed = ov.seed.unwrap_or(spec.run.seed);
+        let substeps = spec.run.substeps;
+        let tick_s = 1.0 / spec.run.tick_hz;
+        let mut physics = Physics::new(tick_s / substeps as f32);
+
+        // Arena walls, centred on the border of the usable area.
+        let c = Vec2::new(spec.arena.center[0], spec.arena.center[1]);
+        let (w, h) = (spec.arena.size[0], spec.arena.size[1]);
+        let t = spec.arena.wall_thickness;
+        let wh = spec.arena.wall_height;
+        let mut walls = vec![
+            Wall {
+                center: c + Vec2::new(w / 2.0, 0.0),
+                size: Vec2::new(t, h + t),
+                yaw: 0.0,
+                height: wh,
+            },
+            Wall {
+                center: c - Vec2::new(w / 2.0, 0.0),
+                size: Vec2::new(t, h + t),
+                yaw: 0.0,
+                height: wh,
+            },
+            Wall {
+                center: c + Vec2::new(0.0, h / 2.0),
+                size: Vec2::new(w + t, t),
+                yaw: 0.0,
+                height: wh,
+            },
+            Wall {
+                center: c - Vec2::new(0.0, h / 2.0),
+                size: Vec2::new(w + t, t),
+                yaw: 0.0,
+                height: wh,
+            },
+        ];
+        for ws in &spec.walls {
+            walls.push(Wall {
+                center: Vec2::new(ws.at[0], ws.at[1]),
+                size: Vec2::new(ws.size[0], ws.size[1]),
+                yaw: ws.yaw_deg.to_radians(),
+                height: ws.height,
+            });
+        }
+        for (i, wl) in walls.iter().enumerate() {
+            physics.add_wall(wl.center, wl.size, wl.yaw, i);
+        }
+
+        let mut objects = Vec::new();
+        for (i, o) in spec.objects.iter().enumerate() {
+            let parts = sc.object_parts(i)?;
+            let shape = compound_shape(&parts).map_err(|e| sc.error_at(o.span(), e.0))?;
+            let os = o.get_ref();
+            let pose = Pose::new(os.at[0], os.at[1], os.yaw_deg.to_radians());
+            let body = physics.add_object(shape, pose, os.mass, os.movable, os.floor_mu, i);
+            objects.push(Object {
+                name: os.name.clone().unwrap_or_else(|| format!("object{i}")),
+                body,
+                parts,
+                height: os.height,
+                mass: os.mass,
+                movable: os.movable,
+                color: os.color,
+                start: physics.center_of_mass(body),
+            });
+        }
+        let target = objects
+            .iter()
+            .position(|o| o.movable)
+            .or(if objects.is_empty() { None } else { Some(0) });
+
+        let lights = spec
+            .lights
+            .iter()
+            .map(|l| Light {
+                position: Vec2::new(l.at[0], l.at[1]),
+                height: l.height,
+                intensity: l.intensity,
+            })
+            .collect();
+
+        // Robot groups and placement.
+        let mut groups = Vec::new();
+        let mut robots: Vec<Robot> = Vec::new();
+        let mut place_rng = rng_stream(seed, 0, 0);
+        let mut placed: Vec<(Vec2, f32)> = Vec::new();
+        for (g, grp_s) in spec.robots.iter().enumerate() {
+            let grp = grp_s.get_ref();
+            let model = RobotModel::of(grp.model);
+            let layout = SensorLayout::of(&model);
+            let name = ov
+                .controller
+                .clone()
+                .unwrap_or_else(|| grp.controller.get_ref().clone());
+            let factory =
+                controllers::factory(&name, grp.params.as_ref().map(|p| p.get_ref()), &layout)
+                    .map_err(|m| {
+                        let span = match (&grp.params, ov.controller.is_some()) {
+                            (Some(p), false) => p.span(),
+                            _ => grp.controller.span(),
+                        };
+                        sc.error_at(span, format!("robots[{g}] controller `{name}`: {m}"))
+                    })?;
+            let count = sc.group_count(g);
+            let poses = place_group(
+                sc,
+                g,
+                count,
+                &model,
+                &physics,
+                &mut place_rng,
+                &mut placed,
+                c,
+                Vec2::new(w, h),
+            )?;
+            for (k, pose) in poses.into_iter().enumerate() {
+                let idx = robots.len();
+                robots.push(Robot {
+                    group: g,
+                    body: None,
+                    release_s: grp.release.start_s + grp.release.interval_s * k as f32,
+                    start: pose,
+                    readings: Readings::default(),
+                    action: Actuation::default(),
+                    led: Color::Off,
+                    attached: None,
+                    attached_at_s: None,
+                    state: "waiting",
+                    controller: factory.make(),
+                    rng: rng_stream(seed, 1, idx as u64),
+                    sense_rng: rng_stream(seed, 2, idx as u64),
+                    scratch: Scratch::default(),
+                });
+            }
+            groups.push(Group {
+                model,
+                layout,
+                sensors: grp.sensors.clone(),
+                controller: name,
+                factory,
+            });
+        }
+
+        let mut world = World {
+            physics,
+            walls,
+            objects,
+            lights,
+            goal_light: sc.goal_light(),
+            groups,
+            robots,
+            target,
+            time_s: 0.0,
+            tick: 0,
+            tick_s,
+            tick_hz: f64::from(spec.run.tick_hz),
+            substeps,
+            seed,
+            arena: (c, Vec2::new(w, h)),
+            near: Vec::new(),
+        };
+        world.release();
+        Ok(world)
+    }
+
+    /// One control tick: release robots that are due, act, physics sub-steps, sense, control.
+    /// Robots start still: their controllers first run at the end of the first tick, once the
+    /// physics has built its query tree.
+    pub fn step(&mut self) {
+        self.release();
+        self.act();
+        for _ in 0..self.substeps {
+            for r in &self.robots {
+                if let Some(body) = r.body {
+                    let model = &self.groups[r.group].model;
+                    let free = r.attached.is_some();
+                    self.physics
+                        .drive(body, model, r.action.left, r.action.right, free);
+                }
+            }
+            self.physics.step();
+        }
+        self.tick += 1;
+        self.time_s = self.tick as f64 / self.tick_hz;
+        self.sense();
+        self.control();
+    }
+
+    /// Applies last tick's decisions that are not wheel speeds: LEDs and attach/detach.
+    fn act(&mut self) {
+        for i in 0..self.robots.len() {
+            let Some(body) = self.robots[i].body else {
+                continue;
+            };
+            let action = self.robots[i].action;
+            self.robots[i].led = action.led;
+            match action.attach {
+                AttachCommand::Keep => {}
+                AttachCommand::Detach => {
+                    if let Some((joint, _)) = self.robots[i].attached.take() {
+                        self.physics.detach(joint);
+                        self.robots[i].attached_at_s = None;
+                    }
+                }
+                AttachCommand::Attach => {
+                    if self.robots[i].attached.is_none() {
+                        if let Some(obj) = self.touching_object(i, body) {
+                            let joint = self.physics.attach(body, self.objects[obj].body);
+                            self.robots[i].attached = Some((joint, obj));
+                            self.robots[i].attached_at_s = Some(self.time_s as f32);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The object robot `i` touches directly, or through a robot already attached to it.
+    fn touching_object(&mut self, i: usize, body: BodyId) -> Option<usize> {
+        let model = &self.groups[self.robots[i].group].model;
+        let reach = 0.02;
+        let center = self.physics.pose(body).position();
+        self.physics
+            .nearby(center, model.radius + reach + 0.05, &mut self.near);
+        let mut best: Option<(f32, usize)> = None;
+        for n in &self.near {
+            let (other, obj) = match n.tag {
+                Tag::Object(j) => (self.objects[j].body, j),
+                Tag::Robot(k) if k != i => match (self.robots[k].body, self.robots[k].attached) {
+                    (Some(b), Some((_, j))) => (b, j),
+                    _ => continue,
+                },
+                _ => continue,
+            };
+            let d = self.physics.distance(body, other);
+            if d <= reach && best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, obj));
+            }
+        }
+        best.map(|(_, j)| j)
+    }
+
+    /// Adds robots whose release time has come, once their start spot is free.
+    fn release(&mut self) {
+        let now = self.time_s as f32 + 1e-6;
+
+        for i in 0..self.robots.len() {
+            let r = &self.robots[i];
+            if r.body.is_some() || r.release_s > now {
+                continue;
+            }
+            let model = &self.groups[r.group].model;
+            let p = r.start.position();
+            if self.time_s > 0.0 {
+                self.physics.nearby(p, model.radius + 0.01, &mut self.near);
+                let blocked = self.near.iter().any(|n| match n.tag {
+                    Tag::Robot(k) => self.robots[k].body.is_some_and(|b| {
+                        (self.physics.pose(b).position() - p).length() < 2.0 * model.radius + 0.005
+                    }),
+                    _ => false,
+                });
+                if blocked {
+                    continue;
+                }
+            }
+            let body = self.physics.add_robot(model, r.start, i);
+            self.robots[i].body = Some(body);
+            self.robots[i].state = "released";
+        }
+    }
+
+    /// Computes every released robot's readings.
+    fn sense(&mut self) {
+        let beacon = self
+            .target
+            .map(|t| self.physics.center_of_mass(self.objects[t].body));
+        let objects = &self.objects;
+        let walls = &self.walls;
+        let robots = &mut self.robots;
+        let groups = &self.groups;
+        let heights: Vec<f32> = robots
+            .iter()
+            .map(|r| groups[r.group].model.height)
+            .collect();
+        let leds: Vec<Color> = robots.iter().map(|r| r.led).collect();
+        let height = |t: Tag| match t {
+            Tag::Wall(i) => walls[i].height,
+            Tag::Object(i) => objects[i].height,
+            Tag::Robot(i) => heights[i],
+        };
+        let color = |t: Tag| match t {
+            Tag::Wall(_) => Color::Off,
+            Tag::Object(i) => objects[i].color,
+            Tag::Robot(i) => leds[i],
+        };
+        let ctx = SenseContext {
+            physics: &self.physics,
+            lights: &self.lights,
+            height: &height,
+            color: &color,
+            beacon,
+        };
+        let time = self.time_s as f32;
+        for (i, r) in robots.iter_mut().enumerate() {
+            let Some(body) = r.body else { continue };
+            let g = &groups[r.group];
+            let pose = self.physics.pose(body);
+            r.readings.time_s = time;
+            r.readings.attached = r.attached.is_some();
+            sense(
+                &ctx,
+                &g.model,
+                g.factory.needs,
+                &g.sensors,
+                Tag::Robot(i),
+                pose,
+                &mut r.scratch,
+                &mut r.sense_rng,
+                &mut r.readings,
+            );
+        }
+    }
+
+    /// Runs every released robot's controller.
+    fn control(&mut self) {
+        for r in &mut self.robots {
+            if r.body.is_none() {
+                continue;
+            }
+            r.action = r.controller.step(&r.readings, &mut r.rng);
+            r.state = r.controller.state();
+        }
+    }
+
+    /// Pose of robot `i` (its start pose if not yet released).
+    pub fn robot_pose(&self, i: usize) -> Pose {
+        self.robots[i]
+            .body
+            .map_or(self.robots[i].start, |b| self.physics.pose(b))
+    }
+
+    /// Model of robot `i`.
+    pub fn robot_model(&self, i: usize) -> &RobotModel {
+        &self.groups[self.robots[i].group].model
+    }
+
+    /// Pose of object `i`'s body.
+    pub fn object_pose(&self, i: usize) -> Pose {
+        self.physics.pose(self.objects[i].body)
+    }
+
+    /// Centre of mass of object `i`.
+    pub fn object_center(&self, i: usize) -> Vec2 {
+        self.physics.center_of_mass(self.objects[i].body)
+    }
+
+    /// Floor point of the goal light.
+    pub fn goal(&self) -> Option<Vec2> {
+        self.goal_light.map(|g| self.lights[g].position)
+    }
+
+    /// Number of robots released so far.
+    pub fn released(&self) -> usize {
+        self.robots.iter().filter(|r| r.body.is_some()).count()
+    }
+}
+
+/// Start poses for group `g`, checked against walls, objects, the arena and each other.
+#[allow(clippy::too_many_arguments)]
+fn place_group(
+    sc: &Scenario,
+    g: usize,
+    count: usize,
+    model: &RobotModel,
+    physics: &Physics,
+    rng: &mut RobotRng,
+    placed: &mut Vec<(Vec2, f32)>,
+    arena_c: Vec2,
+    arena: Vec2,
+) -> Result<Vec<Pose>, ScenarioError> {
+    let grp = sc.spec.robots[g].get_ref();
+    let span = grp.placement.span();
+    let r = model.radius;
+    let inside = |p: Vec2| {
+        let d = p - arena_c;
+        d.x.abs() < arena.x / 2.0 - r && d.y.abs() < arena.y / 2.0 - r
+    };
+    let free = |p: Vec2, placed: &[(Vec2, f32)]| -> Result<(), String> {
+        if let Some(tag) = physics.disc_overlaps(p, r) {
+            return Err(match tag {
+                Tag::Wall(_) => "is inside a wall".into(),
+                Tag::Object(j) => format!("overlaps objects[{j}]"),
+                Tag::Robot(_) => "overlaps a robot".into(),
+            });
+        }
+        if !inside(p) {
+            return Err("is outside the arena".into());
+        }
+        if placed.iter().any(|(q, rq)| (*q - p).length() < r + rq) {
+            return Err("overlaps another robot".into());
+        }
+        Ok(())
+    };
+    let mut out = Vec::with_capacity(count);
+    match grp.placement.get_ref() {
+        Placement::Random {
+            min,
+            max,
+            heading_deg,
+        } => {
+            for k in 0..count {
+                let mut ok = None;
+                for _ in 0..10_000 {
+                    let p = Vec2::new(
+                        rng.random_range(min[0]..max[0]),
+                        rng.random_range(min[1]..max[1]),
+                    );
+                    if free(p, placed).is_ok() {
+                        ok = Some(p);
+                        break;
+                    }
+                }
+                let Some(p) = ok else {
+                    return Err(sc.error_at(
+                        span.clone(),
+                        format!("robots[{g}]: no free spot for robot {} of {count} in the random region after 10000 tries; enlarge the region or place fewer robots", k + 1),
+                    ));
+                };
+                let theta = match heading_deg {
+                    Some(d) => d.to_radians(),
+                    None => rng.random_range(-std::f32::consts::PI..std::f32::consts::PI),
+                };
+                placed.push((p, r));
+                out.push(Pose::new(p.x, p.y, theta));
+            }
+        }
+        Placement::Grid {
+            center,
+            spacing,
+            columns,
+            heading_deg,
+        } => {
+            let cols = columns
+                .unwrap_or_else(|| (count as f32).sqrt().ceil() as usize)
+                .max(1);
+            let rows = count.div_ceil(cols);
+            for k in 0..count {
+                let (cx, ry) = (k % cols, k / cols);
+                let p = Vec2::new(
+                    center[0] + (cx as f32 - (cols as f32 - 1.0) / 2.0) * spacing,
+                    center[1] + (ry as f32 - (rows as f32 - 1.0) / 2.0) * spacing,
+                );
+                free(p, placed).map_err(|m| {
+                    sc.error_at(
+                        span.clone(),
+                        format!(
+                            "robots[{g}]: grid robot {} at ({:.3}, {:.3}) {m}",
+                            k + 1,
+                            p.x,
+                            p.y
+                        ),
+                    )
+                })?;
+                placed.push((p, r));
+                out.push(Pose::new(p.x, p.y, heading_deg.to_radians()));
+            }
+        }
+        Placement::Poses(poses) => {
+            for (k, q) in poses.iter().enumerate() {
+                let p = Vec2::new(q[0], q[1]);
+                free(p, placed).map_err(|m| {
+                    sc.error_at(
+                        span.clone(),
+                        format!("robots[{g}]: robot {} at ({}, {}) {m}", k + 1, q[0], q[1]),
+                    )
+                })?;
+                placed.push((p, r));
+                out.push(Pose::new(p.x, p.y, q[2].to_radians()));
+            }
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,54 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use formica::experiment::{Run, RunOptions};
+use formica::{Overrides, Scenario};
+
+/// A 6 x 4 m arena with `body` appended (objects, lights, robots in TOML).
+pub fn scenario(body: &str) -> Scenario {
+    let text = format!("[arena]\nsize = [6.0, 4.0]\n{body}");
+    Scenario::parse(&text, "test.toml").unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A run of `sc` with the given seed.
+pub fn start(sc: &Scenario, seed: u64) -> Run {
+    let opts = RunOptions {
+        overrides: Overrides {
+            seed: Some(seed),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    Run::new(sc, &opts).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Stand-still robots at explicit poses `[x, y, heading_deg]`.
+pub fn still_robots(poses: &[[f32; 3]]) -> String {
+    let list: Vec<String> = poses
+        .iter()
+        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
+        .collect();
+    format!(
+        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.0, right = 0.0 }}\nplacement = {{ poses = [{}] }}\n",
+        list.join(", ")
+    )
+}
+
+/// Robots driving straight at `speed` from explicit poses.
+pub fn pushers(poses: &[[f32; 3]], speed: f32) -> String {
+    let list: Vec<String> = poses
+        .iter()
+        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
+        .collect();
+    format!(
+        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = {speed}, right = {speed} }}\nplacement = {{ poses = [{}] }}\n",
+        list.join(", ")
+    )
+}
+
+/// The seed's transport box at `(x, y)`: 0.5 m, 50 kg, 0.5 m tall, floor friction 2.94 N.
+pub fn seed_box(x: f32, y: f32) -> String {
+    format!(
+        "[[objects]]\nat = [{x}, {y}]\nshape = {{ box = [0.5, 0.5] }}\nmass = 50.0\nheight = 0.5\nfloor_mu = 0.006\n"
+    )
+}

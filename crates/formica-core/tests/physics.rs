@@ -1,0 +1,107 @@
+//! Physics behaviour that experiments rely on.
+
+mod common;
+use common::*;
+use proptest::prelude::*;
+
+fn box_displacement(robots: &str, seconds: u32) -> f32 {
+    let sc = scenario(&format!("{}{}", seed_box(0.0, 0.0), robots));
+    let mut run = start(&sc, 1);
+    let before = run.world.object_center(0);
+    for _ in 0..seconds * 10 {
+        run.world.step();
+    }
+    (run.world.object_center(0) - before).length()
+}
+
+#[test]
+fn one_khepera_cannot_move_the_seed_box() {
+    // Touching the box's west face, driving east at full push.
+    let d = box_displacement(&pushers(&[[-0.33, 0.0, 0.0]], 0.2), 20);
+    assert!(d < 0.01, "one robot moved the 50 kg box by {d} m");
+}
+
+#[test]
+fn three_kheperas_move_the_seed_box() {
+    let d = box_displacement(
+        &pushers(
+            &[[-0.33, -0.16, 0.0], [-0.33, 0.0, 0.0], [-0.33, 0.16, 0.0]],
+            0.1,
+        ),
+        20,
+    );
+    assert!(d > 0.5, "three robots moved the box only {d} m in 20 s");
+}
+
+#[test]
+fn a_robot_holding_still_is_pushed_by_at_most_its_drive_force() {
+    // A stopped robot resists with its motors; it does not behave like a wall.
+    let sc = scenario(&format!(
+        "{}{}",
+        still_robots(&[[0.5, 0.0, 0.0]]),
+        pushers(
+            &[[0.0, -0.05, 0.0], [0.0, 0.05, 0.0]].map(|p| [p[0], p[1] * 0.0 + p[1], 0.0]),
+            0.1
+        )
+        .replace(
+            "poses = [[0, -0.05, 0], [0, 0.05, 0]]",
+            "poses = [[0.0, 0.0, 0.0]]"
+        )
+    ));
+    let mut run = start(&sc, 1);
+    for _ in 0..100 {
+        run.world.step();
+    }
+    // Equal drive forces: neither robot gets through the other.
+    let a = run.world.robot_pose(0).position();
+    let b = run.world.robot_pose(1).position();
+    assert!(b.x < a.x, "the pusher passed through the stopped robot");
+}
+
+fn inside_arena(run: &formica::experiment::Run) -> bool {
+    (0..run.world.robots.len()).all(|i| {
+        let p = run.world.robot_pose(i).position();
+        p.x.abs() < 3.0 && p.y.abs() < 2.0
+    }) && (0..run.world.objects.len()).all(|i| {
+        let c = run.world.object_center(i);
+        c.x.abs() < 3.0 && c.y.abs() < 2.0
+    })
+}
+
+#[test]
+fn robots_at_full_speed_into_walls_stay_inside() {
+    // Robots aimed at every wall and corner at the model's top speed (clamped to 0.8 m/s).
+    let poses: Vec<[f32; 3]> = (0..16)
+        .map(|k| {
+            let a = k as f32 * 22.5;
+            let r = a.to_radians();
+            [r.cos() * 1.0, r.sin() * 1.0, a]
+        })
+        .collect();
+    let sc = scenario(&pushers(&poses, 5.0));
+    let mut run = start(&sc, 1);
+    for _ in 0..600 {
+        run.world.step();
+        assert!(
+            inside_arena(&run),
+            "a robot left the arena at t = {}",
+            run.world.time_s
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+    #[test]
+    fn nothing_leaves_the_arena(seed in 0u64..1000, n in 5usize..40) {
+        let sc = scenario(&format!(
+            "{}[[robots]]\ncount = {n}\ncontroller = \"random-walk\"\nparams = {{ speed = 0.5 }}\nplacement = {{ random = {{ min = [-2.8, -1.8], max = [2.8, 1.8] }} }}\n",
+            seed_box(0.0, 0.0).replace("floor_mu = 0.006", "floor_mu = 0.0005"),
+        ));
+        let mut run = start(&sc, seed);
+        for _ in 0..400 {
+            run.world.step();
+        }
+        prop_assert!(inside_arena(&run));
+    }
+}
