@@ -5,7 +5,14 @@ use std::process::ExitCode;
 
 mod cmd_bench;
 mod cmd_check;
+mod cmd_export;
+mod cmd_merge;
+mod cmd_record;
+mod cmd_report;
 mod cmd_run;
+mod cmd_serve;
+mod cmd_slurm;
+mod cmd_sweep;
 mod output;
 mod stats;
 
@@ -25,6 +32,20 @@ enum Command {
     Check(cmd_check::Args),
     /// Measure robot-ticks per second on the standard scaled transport world.
     Bench(cmd_bench::Args),
+    /// Run a parameter sweep into a SQLite result store (resumable).
+    Sweep(cmd_sweep::Args),
+    /// Export a result store to CSV.
+    Export(cmd_export::Args),
+    /// Plots and a Markdown summary from a result store.
+    Report(cmd_report::Args),
+    /// Merge shard result stores into one.
+    Merge(cmd_merge::Args),
+    /// Write (and optionally submit) a Slurm job-array script for a sweep.
+    Slurm(cmd_slurm::Args),
+    /// Serve a live viewer of a scenario on 127.0.0.1.
+    Serve(cmd_serve::Args),
+    /// Render a run to an animated GIF.
+    Record(cmd_record::Args),
 }
 
 /// An error with the exit code it deserves: 2 for bad input, 1 otherwise.
@@ -53,6 +74,13 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd_run::main(a),
         Command::Check(a) => cmd_check::main(a),
         Command::Bench(a) => cmd_bench::main(a),
+        Command::Sweep(a) => cmd_sweep::main(a),
+        Command::Export(a) => cmd_export::main(a),
+        Command::Report(a) => cmd_report::main(a),
+        Command::Merge(a) => cmd_merge::main(a),
+        Command::Slurm(a) => cmd_slurm::main(a),
+        Command::Serve(a) => cmd_serve::main(a),
+        Command::Record(a) => cmd_record::main(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,
