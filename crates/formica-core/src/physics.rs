@@ -75,9 +75,35 @@ pub struct AttachId(ImpulseJointHandle);
 pub struct Physics {
     world: PhysicsWorld,
     ground: RigidBodyHandle,
-    /// Floor-friction joints of movable objects: (object body, joint, force cap).
+    /// Floor-friction joints of movable objects: (object body, joint).
     friction_joints: Vec<(RigidBodyHandle, ImpulseJointHandle)>,
+    /// Every wall and object collider: the few bodies that can hide a light far away.
+    fixtures: Vec<Nearby>,
+    /// Robot colliders, in insertion order, with their radii.
+    robots: Vec<(Nearby, f32)>,
+    /// Neighbour index for sensor queries, rebuilt once per tick.
+    index: NeighbourIndex,
 }
+
+/// A uniform grid of robot positions plus the bounding boxes of walls and objects: answers
+/// "what is near this point" in constant time per robot, which a tree query cannot match when
+/// every robot asks every tick.
+#[derive(Default)]
+struct NeighbourIndex {
+    cell: f32,
+    min: Vec2,
+    nx: usize,
+    ny: usize,
+    /// `starts[c]..starts[c + 1]` are the entries of cell `c` in `items`.
+    starts: Vec<u32>,
+    /// (position, slot in `Physics::robots`).
+    items: Vec<(Vec2, u32)>,
+    fixture_boxes: Vec<Aabb>,
+    max_radius: f32,
+}
+
+/// Side of a neighbour-index cell (m): about a Khepera's proximity reach.
+const CELL_M: f32 = 0.3;
 
 impl Physics {
     /// An empty world stepping `dt` seconds per call to [`Physics::step`].
@@ -90,6 +116,9 @@ impl Physics {
             world,
             ground,
             friction_joints: Vec::new(),
+            fixtures: Vec::new(),
+            robots: Vec::new(),
+            index: NeighbourIndex::default(),
         }
     }
 
@@ -123,6 +152,7 @@ impl Physics {
             body,
             &mut self.world.bodies,
         );
+        self.fixtures.push(Nearby { tag, collider });
         BodyId {
             body,
             collider,
@@ -161,6 +191,10 @@ impl Physics {
             body,
             &mut self.world.bodies,
         );
+        self.fixtures.push(Nearby {
+            tag: Tag::Object(index),
+            collider,
+        });
         let force = floor_mu * mass * GRAVITY;
         let r_eff = (area / std::f32::consts::PI).sqrt();
         let torque = force * r_eff * 2.0 / 3.0;
@@ -222,6 +256,13 @@ impl Physics {
             .world
             .impulse_joints
             .insert(self.ground, body, joint, true);
+        self.robots.push((
+            Nearby {
+                tag: Tag::Robot(index),
+                collider,
+            },
+            model.radius,
+        ));
         BodyId {
             body,
             collider,
@@ -246,33 +287,60 @@ impl Physics {
         self.world.bodies[id.body].linvel()
     }
 
-    /// Sets a robot's wheel speeds `left`, `right` (m/s), clamped to the model's maximum. The
-    /// drive motors pull the body toward the differential-drive velocity with at most the
-    /// model's force and torque. With `free` the wheels exert no force (an attached robot).
+    /// Sets a robot's wheel speeds `left`, `right` (m/s), clamped to the model's maximum, for
+    /// the next step: the body is pulled toward the differential-drive velocity (forward,
+    /// no sideways slip, turn rate) with at most the model's drive force and torque. With
+    /// `free` the wheels exert no force (an attached robot).
+    ///
+    /// A robot touching something is driven by the joint's velocity motors, solved together
+    /// with the contacts, so it pushes with exactly its drive force. A robot touching nothing
+    /// gets the same capped velocity change directly, which is what the motors would do
+    /// without contacts and costs far less than solving a joint.
     pub fn drive(&mut self, id: BodyId, model: &RobotModel, left: f32, right: f32, free: bool) {
         let Some(jh) = id.drive else { return };
         let l = left.clamp(-model.max_speed, model.max_speed);
         let r = right.clamp(-model.max_speed, model.max_speed);
-        let b = &self.world.bodies[id.body];
-        let frame = rapier2d::math::Pose::new(b.translation(), b.rotation().angle());
-        let (force, torque) = if free {
-            (0.0, 0.0)
-        } else {
-            (model.max_force, model.max_torque)
+        let (v, w) = ((l + r) / 2.0, (r - l) / model.wheel_distance);
+        let touching = !free && self.in_contact(id.collider);
+        let dt = self.dt();
+        let b = &mut self.world.bodies[id.body];
+        let heading = b.rotation().angle();
+        let frame = rapier2d::math::Pose::new(b.translation(), heading);
+        if !free && !touching {
+            let target = Vec2::new(heading.cos(), heading.sin()) * v;
+            let mut dv = target - b.linvel();
+            let cap = model.max_force / model.mass * dt;
+            if dv.length() > cap {
+                dv *= cap / dv.length();
+            }
+            let inertia = 0.5 * model.mass * model.radius * model.radius;
+            let wcap = model.max_torque / inertia * dt;
+            let dw = (w - b.angvel()).clamp(-wcap, wcap);
+            let (lin, ang) = (b.linvel() + dv, b.angvel() + dw);
+            b.set_linvel(lin, true);
+            b.set_angvel(ang, true);
+        }
+        let Some(j) = self.world.impulse_joints.get_mut(jh, false) else {
+            return;
         };
-        if let Some(j) = self.world.impulse_joints.get_mut(jh, false) {
+        if touching {
             j.data
                 .set_local_frame1(frame)
-                .set_motor_velocity(JointAxis::LinX, (l + r) / 2.0, MOTOR_DAMPING)
-                .set_motor_velocity(
-                    JointAxis::AngX,
-                    (r - l) / model.wheel_distance,
-                    MOTOR_DAMPING,
-                )
-                .set_motor_max_force(JointAxis::LinX, force)
-                .set_motor_max_force(JointAxis::LinY, force)
-                .set_motor_max_force(JointAxis::AngX, torque);
+                .set_motor_velocity(JointAxis::LinX, v, MOTOR_DAMPING)
+                .set_motor_velocity(JointAxis::AngX, w, MOTOR_DAMPING);
+            if !j.data.is_enabled() {
+                j.data.set_enabled(true);
+            }
+        } else if j.data.is_enabled() {
+            j.data.set_enabled(false);
         }
+    }
+
+    fn in_contact(&self, collider: ColliderHandle) -> bool {
+        self.world
+            .narrow_phase
+            .contact_pairs_with(collider)
+            .any(|p| p.has_any_active_contact())
     }
 
     /// Advances the world by one step. Before stepping, each object's floor-friction frame is
@@ -315,17 +383,104 @@ impl Physics {
         self.world.impulse_joints.remove(id.0, true);
     }
 
-    /// Colliders whose bounding boxes meet the square of half-side `radius` around `center`,
-    /// appended to `out` (cleared first).
+    /// Rebuilds the neighbour index from the current positions. Call once per tick, after the
+    /// physics steps and before sensing.
+    pub fn rebuild_index(&mut self) {
+        let idx = &mut self.index;
+        idx.fixture_boxes.clear();
+        for f in &self.fixtures {
+            idx.fixture_boxes
+                .push(self.world.colliders[f.collider].compute_aabb());
+        }
+        idx.items.clear();
+        let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        idx.max_radius = 0.0;
+        for (slot, (n, r)) in self.robots.iter().enumerate() {
+            let p = self.world.colliders[n.collider].position().translation;
+            lo = lo.min(p);
+            hi = hi.max(p);
+            idx.max_radius = idx.max_radius.max(*r);
+            idx.items.push((p, slot as u32));
+        }
+        if idx.items.is_empty() {
+            idx.starts.clear();
+            idx.nx = 0;
+            idx.ny = 0;
+            return;
+        }
+        // Keep the grid at most a few cells per robot, whatever the spread.
+        let span = (hi - lo).max(Vec2::splat(1e-3));
+        let mut cell = CELL_M;
+        let budget = 4.0 * idx.items.len() as f32 + 1024.0;
+        if (span.x / cell + 1.0) * (span.y / cell + 1.0) > budget {
+            cell = ((span.x * span.y) / budget).sqrt().max(CELL_M);
+        }
+        idx.cell = cell;
+        idx.min = lo;
+        idx.nx = (span.x / cell).floor() as usize + 1;
+        idx.ny = (span.y / cell).floor() as usize + 1;
+        let cells = idx.nx * idx.ny;
+        let cell_of = |p: Vec2, idx: &NeighbourIndex| {
+            let cx = (((p.x - idx.min.x) / idx.cell) as usize).min(idx.nx - 1);
+            let cy = (((p.y - idx.min.y) / idx.cell) as usize).min(idx.ny - 1);
+            cy * idx.nx + cx
+        };
+        idx.starts.clear();
+        idx.starts.resize(cells + 1, 0);
+        for k in 0..idx.items.len() {
+            let c = cell_of(idx.items[k].0, idx);
+            idx.starts[c + 1] += 1;
+        }
+        for c in 0..cells {
+            idx.starts[c + 1] += idx.starts[c];
+        }
+        let mut fill = idx.starts.clone();
+        let mut sorted = vec![(Vec2::ZERO, 0u32); idx.items.len()];
+        for &(p, slot) in &idx.items {
+            let c = cell_of(p, idx);
+            sorted[fill[c] as usize] = (p, slot);
+            fill[c] += 1;
+        }
+        idx.items = sorted;
+    }
+
+    /// Colliders within the square of half-side `radius` around `center` (walls and objects
+    /// by bounding box, robots by position), appended to `out` after clearing it. Uses the
+    /// index from the last [`Physics::rebuild_index`].
     pub fn nearby(&self, center: Vec2, radius: f32, out: &mut Vec<Nearby>) {
         out.clear();
-        let aabb = Aabb::new(center - Vec2::splat(radius), center + Vec2::splat(radius));
-        let q = self.query(QueryFilter::default());
-        for (h, c) in q.intersect_aabb_conservative(aabb) {
-            out.push(Nearby {
-                tag: Tag::decode(c.user_data),
-                collider: h,
-            });
+        let idx = &self.index;
+        let query = Aabb::new(center - Vec2::splat(radius), center + Vec2::splat(radius));
+        for (f, b) in self.fixtures.iter().zip(&idx.fixture_boxes) {
+            if b.intersects(&query) {
+                out.push(*f);
+            }
+        }
+        if idx.nx == 0 {
+            return;
+        }
+        let reach = radius + idx.max_radius;
+        let lo = center - Vec2::splat(reach) - idx.min;
+        let hi = center + Vec2::splat(reach) - idx.min;
+        if hi.x < 0.0 || hi.y < 0.0 {
+            return;
+        }
+        let x0 = ((lo.x / idx.cell).max(0.0) as usize).min(idx.nx - 1);
+        let y0 = ((lo.y / idx.cell).max(0.0) as usize).min(idx.ny - 1);
+        let x1 = ((hi.x / idx.cell) as usize).min(idx.nx - 1);
+        let y1 = ((hi.y / idx.cell) as usize).min(idx.ny - 1);
+        for cy in y0..=y1 {
+            let row = cy * idx.nx;
+            let (a, b) = (
+                idx.starts[row + x0] as usize,
+                idx.starts[row + x1 + 1] as usize,
+            );
+            for &(p, slot) in &idx.items[a..b] {
+                let (n, r) = self.robots[slot as usize];
+                if (p.x - center.x).abs() <= radius + r && (p.y - center.y).abs() <= radius + r {
+                    out.push(n);
+                }
+            }
         }
     }
 
@@ -356,21 +511,16 @@ impl Physics {
         best
     }
 
-    /// Calls `hit(tag, distance)` for every collider that the segment from `origin` along unit
-    /// `dir` for `max_dist` enters (global query through the broad phase's tree).
-    pub fn for_each_ray_hit(
-        &self,
-        origin: Vec2,
-        dir: Vec2,
-        max_dist: f32,
-        mut hit: impl FnMut(Tag, f32) -> bool,
-    ) {
-        let q = self.query(QueryFilter::default());
-        for (_, c, inter) in q.intersect_ray(Ray::new(origin, dir), max_dist, true) {
-            if !hit(Tag::decode(c.user_data), inter.time_of_impact) {
-                break;
-            }
-        }
+    /// Every wall and object collider (robots excluded), in insertion order.
+    pub fn fixtures(&self) -> &[Nearby] {
+        &self.fixtures
+    }
+
+    /// Distance along the ray at which it enters a collider, if within `max_dist`.
+    pub fn ray_entry(&self, n: &Nearby, origin: Vec2, dir: Vec2, max_dist: f32) -> Option<f32> {
+        let col = &self.world.colliders[n.collider];
+        col.shape()
+            .cast_ray(col.position(), &Ray::new(origin, dir), max_dist, true)
     }
 
     /// The point of a body's surface nearest to `point`, and whether `point` is inside it.

@@ -415,7 +415,7 @@ fn default_tick_hz() -> f32 {
     10.0
 }
 /// Default physics steps per control tick.
-pub const DEFAULT_SUBSTEPS: u32 = 2;
+pub const DEFAULT_SUBSTEPS: u32 = 1;
 fn default_substeps() -> u32 {
     DEFAULT_SUBSTEPS
 }

@@ -117,6 +117,9 @@ pub struct SenseContext<'a> {
     pub color: &'a dyn Fn(Tag) -> Color,
     /// The object beacon: the target object's centre.
     pub beacon: Option<Vec2>,
+    /// Height of the tallest robot (m): beyond where a light ray rises above it, robots need
+    /// not be checked.
+    pub robot_height: f32,
 }
 
 /// The explicit occlusion rule. A ray runs from the sensor at `sensor_height` to a light at
@@ -226,16 +229,36 @@ pub fn sense(
                 continue;
             }
             let dir = to / dist;
-            let mut blocked = false;
-            ctx.physics.for_each_ray_hit(center, dir, dist, |tag, t| {
-                if tag != me
-                    && light_blocked(model.light_height, light.height, dist, t, (ctx.height)(tag))
-                {
-                    blocked = true;
-                    return false;
-                }
-                true
+            let blocks = |tag: Tag, t: f32| {
+                light_blocked(model.light_height, light.height, dist, t, (ctx.height)(tag))
+            };
+            // Walls and objects (few) anywhere along the ray.
+            let mut blocked = ctx.physics.fixtures().iter().any(|n| {
+                ctx.physics
+                    .ray_entry(n, center, dir, dist)
+                    .is_some_and(|t| blocks(n.tag, t))
             });
+            // Robots only where the ray is still below the tallest robot: a short stretch.
+            if !blocked {
+                let rise = (light.height - model.light_height) / dist;
+                let reach = if rise > 0.0 {
+                    ((ctx.robot_height - model.light_height) / rise).clamp(0.0, dist)
+                } else {
+                    dist
+                };
+                if reach > 0.0 {
+                    let mid = center + dir * (reach / 2.0);
+                    ctx.physics.nearby(mid, reach / 2.0, &mut scratch.near);
+                    blocked = scratch.near.iter().any(|n| {
+                        n.tag != me
+                            && matches!(n.tag, Tag::Robot(_))
+                            && ctx
+                                .physics
+                                .ray_entry(n, center, dir, reach)
+                                .is_some_and(|t| blocks(n.tag, t))
+                    });
+                }
+            }
             if !blocked {
                 let bearing = wrap_angle(to.y.atan2(to.x) - pose.theta);
                 model.spread_light(bearing, value, &mut out.light);

@@ -437,6 +437,7 @@ impl World {
 
     /// Computes every released robot's readings.
     fn sense(&mut self) {
+        self.physics.rebuild_index();
         let beacon = self
             .target
             .map(|t| self.physics.center_of_mass(self.objects[t].body));
@@ -465,6 +466,7 @@ impl World {
             height: &height,
             color: &color,
             beacon,
+            robot_height: groups.iter().map(|g| g.model.height).fold(0.0, f32::max),
         };
         let time = self.time_s as f32;
         for (i, r) in robots.iter_mut().enumerate() {
