@@ -114,3 +114,43 @@ fn light_strength_follows_distance_law() {
     let got = run.world.robots[0].readings.light[0];
     assert!((got - want).abs() < 1e-4, "{got} vs {want}");
 }
+
+/// A robot whose controller reads the camera (LED green so others can see it).
+fn camera_watchers(poses: &[[f32; 3]]) -> String {
+    let list: Vec<String> = poses
+        .iter()
+        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
+        .collect();
+    format!(
+        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.0, right = 0.0, led = \"red\", camera = true }}\nplacement = {{ poses = [{}] }}\n",
+        list.join(", ")
+    )
+}
+
+#[test]
+fn camera_sees_the_object_colour_and_lit_robots_unless_hidden() {
+    // Robot 0 faces east at (-1, 0); the green box's west face is 0.75 m ahead.
+    // Robot 1 is north of it, in view; robot 2 sits behind the box, hidden from robot 0.
+    let sc = scenario(&format!(
+        "{}{}",
+        seed_box(0.0, 0.0),
+        camera_watchers(&[[-1.0, 0.0, 0.0], [-1.0, 0.8, 0.0], [0.6, 0.0, 0.0]])
+    ));
+    let mut run = start(&sc, 1);
+    // Two ticks: LEDs light up when the first decisions are acted on.
+    run.world.step();
+    run.world.step();
+    let blobs = &run.world.robots[0].readings.blobs;
+    let object = blobs.iter().find(|b| !b.is_robot).unwrap_or_else(|| panic!("no object blob in {blobs:?}"));
+    assert_eq!(object.color, formica::scenario::Color::Green);
+    assert!(
+        (object.distance - 0.75).abs() < 0.01,
+        "distance {}",
+        object.distance
+    );
+    assert!(object.bearing.abs() < 0.01, "bearing {}", object.bearing);
+    let robots: Vec<_> = blobs.iter().filter(|b| b.is_robot).collect();
+    assert_eq!(robots.len(), 1, "only the robot in view: {blobs:?}");
+    assert_eq!(robots[0].color, formica::scenario::Color::Red);
+    assert!((robots[0].bearing - std::f32::consts::FRAC_PI_2).abs() < 0.05);
+}

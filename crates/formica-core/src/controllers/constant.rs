@@ -23,6 +23,9 @@ pub struct Params {
     /// Attach to whatever the robot touches, as soon as it touches it.
     #[serde(default)]
     pub attach: bool,
+    /// Compute camera readings (for tests and recordings of what robots see).
+    #[serde(default)]
+    pub camera: bool,
 }
 
 fn default_speed() -> f32 {
@@ -35,9 +38,11 @@ pub fn factory(
     _layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
     let p: Params = parse_params(params)?;
-    Ok(ControllerFactory::new(SensorNeeds::default(), move || {
-        Box::new(Constant(p))
-    }))
+    let needs = SensorNeeds {
+        camera: p.camera,
+        ..SensorNeeds::default()
+    };
+    Ok(ControllerFactory::new(needs, move || Box::new(Constant(p))))
 }
 
 /// The constant controller.
