@@ -57,7 +57,9 @@ pub fn attached_discs(world: &World, obj: usize) -> Vec<(Vec2, f32)> {
         .collect()
 }
 
-/// Measures the pseudo object of object `obj` with the given discs attached.
+/// Measures the pseudo object of object `obj` with the given discs attached. The cavity is the
+/// part of the object's own convex hull outside the object (it moves with the object); the
+/// convexity is measured on the pseudo object and the hull of the pseudo object.
 pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas {
     let pose = world.object_pose(obj);
     let mut pts: Vec<Vec2> = world.objects[obj]
@@ -66,6 +68,7 @@ pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas
         .flatten()
         .map(|p| pose.world_from_local(p))
         .collect();
+    let object_hull = convex_hull(&pts);
     for (c, r) in discs {
         for k in 0..24 {
             let a = std::f32::consts::TAU * k as f32 / 24.0;
@@ -106,7 +109,7 @@ pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas
             if in_obj || in_robot {
                 a.pseudo += cell;
             }
-            if !in_obj {
+            if !in_obj && point_in_convex_poly2d(p, &object_hull) {
                 a.cavity += cell;
                 if in_robot {
                     a.cavity_covered += cell;
@@ -135,22 +138,28 @@ impl FillHooks {
         }
     }
 
-    fn attached(world: &World) -> usize {
-        world.robots.iter().filter(|r| r.attached.is_some()).count()
+    /// Robots attached to object `obj` (the pseudo object's robots).
+    fn attached(world: &World, obj: usize) -> usize {
+        world
+            .robots
+            .iter()
+            .filter(|r| r.attached.is_some_and(|(_, o)| o == obj))
+            .count()
     }
 }
 
 impl LoopFunctions for FillHooks {
     fn is_finished(&self, world: &World) -> Option<Outcome> {
         let frac = self.on_filled?;
+        let t = world.target?;
         let all_released = world.released() == world.robots.len();
         let n = world.robots.len().max(1) as f32;
-        (all_released && Self::attached(world) as f32 / n >= frac).then_some(Outcome::Success)
+        (all_released && Self::attached(world, t) as f32 / n >= frac).then_some(Outcome::Success)
     }
 
     fn finish(&self, world: &World, r: &mut RunResult) {
         let Some(t) = world.target else { return };
-        let attached = Self::attached(world);
+        let attached = Self::attached(world, t);
         if !self.concave && attached == 0 && self.on_filled.is_none() {
             return;
         }
@@ -160,6 +169,7 @@ impl LoopFunctions for FillHooks {
         r.fill_time_s = world
             .robots
             .iter()
+            .filter(|r| r.attached.is_some_and(|(_, o)| o == t))
             .filter_map(|r| r.attached_at_s)
             .fold(None, |m: Option<f32>, x| Some(m.map_or(x, |m| m.max(x))))
             .map(f64::from);

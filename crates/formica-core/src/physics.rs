@@ -589,13 +589,4 @@ impl Physics {
         let p = self.world.colliders[id.collider].position();
         Pose::new(p.translation.x, p.translation.y, p.rotation.angle())
     }
-
-    fn query<'a>(&'a self, filter: QueryFilter<'a>) -> QueryPipeline<'a> {
-        self.world.broad_phase.as_query_pipeline(
-            self.world.narrow_phase.query_dispatcher(),
-            &self.world.bodies,
-            &self.world.colliders,
-            filter,
-        )
-    }
 }

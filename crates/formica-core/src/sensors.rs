@@ -293,12 +293,19 @@ pub fn sense(
                 continue;
             }
             let dir = to / dist;
-            // Visible if nothing else is hit first on the way.
+            // Visible if nothing else is hit first on the way, or if what is hit first is
+            // lower than both the camera and the target (the camera sees over it: a tall object
+            // stays visible over a ring of robots; robots still hide each other's LEDs).
             let first = ctx
                 .physics
                 .cast_local(&scratch.near, Some(me), center, dir, dist + 0.01);
             let visible = match first {
-                Some((j, t)) => j == k || t >= dist - 1e-3,
+                Some((j, t)) => {
+                    j == k
+                        || t >= dist - 1e-3
+                        || (ctx.height)(scratch.near[j].tag)
+                            < (ctx.height)(n.tag).min(model.camera_height)
+                }
                 None => true,
             };
             if !visible {

@@ -141,7 +141,10 @@ fn camera_sees_the_object_colour_and_lit_robots_unless_hidden() {
     run.world.step();
     run.world.step();
     let blobs = &run.world.robots[0].readings.blobs;
-    let object = blobs.iter().find(|b| !b.is_robot).unwrap_or_else(|| panic!("no object blob in {blobs:?}"));
+    let object = blobs
+        .iter()
+        .find(|b| !b.is_robot)
+        .unwrap_or_else(|| panic!("no object blob in {blobs:?}"));
     assert_eq!(object.color, formica::scenario::Color::Green);
     assert!(
         (object.distance - 0.75).abs() < 0.01,

@@ -1,0 +1,316 @@
+//! `fill-transport`: the whole mission in one run. Robots fill the cavity of a movable concave
+//! object; the others then carry the resulting pseudo object (object plus attached robots) to
+//! the goal by occlusion-based pushing.
+//!
+//! Each robot starts as a **filler** ([`Filler`], as in `filling`) guided by the object's
+//! centre (`Readings::beacon` and `Readings::pose`) instead of a beacon light: it drives to the
+//! object, follows its edge with the left-hand rule and attaches where the object surrounds it
+//! over more than pi (fillers may stack at most about two deep: `object_reach = 0.21` m). From
+//! its first contact on, it sums the angle it sweeps around the object's centre.
+//! **When filling is over** is decided by each robot alone, without a leader or messages: a
+//! robot that has swept `laps` full turns (default 1) around the pseudo object without finding
+//! a concave spot concludes that there is none left and becomes a **pusher** for good. Pushers
+//! run the `occlusion` controller ([`Occlusion`], beacon perception): they circle the pseudo
+//! object and push where it hides the goal light (all light sensors zero). Occlusion with
+//! memory: a pusher remembers the goal's direction (world frame) from when it last saw it, and
+//! takes a dark light ring as "hidden by the object" only if the object's centre lies within
+//! `occluded_within_deg` of that direction (otherwise neighbours hide the goal, or the robot
+//! stands on the goal's side: it is handed a faint light from the remembered direction and
+//! does not push). `pusher = "edge"` swaps the occlusion controller for the filler's own edge
+//! following. Attached robots' wheels exert no force; the pseudo object is moved by the
+//! pushers only.
+//!
+//! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
+//! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
+
+use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
+use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
+use crate::controllers::occlusion::{self, Occlusion};
+use crate::geometry::wrap_angle;
+use crate::scenario::Color;
+use crate::sensors::{Readings, SensorLayout, SensorNeeds};
+use serde::Deserialize;
+
+/// Which behaviour pushes once filling is over.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Pusher {
+    /// The `occlusion` controller (parameters in `push`).
+    #[default]
+    Occlusion,
+    /// The filler's own edge following (left-hand rule, neighbours told apart by the camera)
+    /// with the stop test off; where the goal is hidden it pushes, aiming halfway between the
+    /// object's centre and the goal's last seen direction.
+    Edge,
+}
+
+/// Parameters of `fill-transport`: `fill` and `push` are the parameter tables of `filling` and
+/// `occlusion`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Filling-phase parameters (as `filling`; default `object_reach = 0.21`, so attached
+    /// robots stack at most about two deep on the object).
+    pub fill: filling::Params,
+    /// Pushing-phase parameters (as `occlusion`).
+    pub push: occlusion::Params,
+    /// Full turns around the pseudo object without a concave spot after which a robot stops
+    /// filling and pushes. Default 1.
+    pub laps: f32,
+    /// Pushing behaviour: `"occlusion"` (default) or `"edge"`.
+    pub pusher: Pusher,
+    /// `edge` pusher: pushing speed (m/s). Default 0.1.
+    pub push_speed: f32,
+    /// `edge` pusher: seconds the goal must stay hidden (visible) before pushing (following).
+    /// Default 0.3.
+    pub hidden_s: f32,
+    /// Occlusion with memory: a pusher takes the goal as hidden *by the object* only if the
+    /// object's centre lies within this angle (degrees) of the goal's last seen direction;
+    /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
+    /// Default 90; 180 turns the check off.
+    pub occluded_within_deg: f32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            fill: filling::Params {
+                object_reach: Some(0.21),
+                ..filling::Params::default()
+            },
+            push: occlusion::Params::default(),
+            laps: 1.0,
+            occluded_within_deg: 90.0,
+            pusher: Pusher::Occlusion,
+            push_speed: 0.1,
+            hidden_s: 0.3,
+        }
+    }
+}
+
+/// Builds the factory.
+pub fn factory(
+    params: Option<&toml::Table>,
+    layout: &SensorLayout,
+) -> Result<ControllerFactory, String> {
+    let p: Params = parse_params(params)?;
+    p.fill.validate().map_err(|e| format!("fill: {e}"))?;
+    p.push.validate().map_err(|e| format!("push: {e}"))?;
+    if !(p.laps > 0.0) || !p.laps.is_finite() {
+        return Err(format!("`laps` must be a positive number, got {}", p.laps));
+    }
+    if !(0.0..=180.0).contains(&p.occluded_within_deg) {
+        return Err(format!(
+            "`occluded_within_deg` must be 0 to 180, got {}",
+            p.occluded_within_deg
+        ));
+    }
+    let fill_needs = p.fill.needs();
+    let push_needs = Occlusion::needs(&p.push);
+    let needs = SensorNeeds {
+        proximity: true,
+        light: true,
+        beacon: true,
+        camera: fill_needs.camera || push_needs.camera,
+    };
+    let layout = layout.clone();
+    Ok(ControllerFactory::new(needs, move || {
+        Box::new(FillTransport::new(p.clone(), &layout))
+    }))
+}
+
+/// The fill-then-transport controller.
+#[derive(Debug, Clone)]
+pub struct FillTransport {
+    filler: Filler,
+    pusher: Occlusion,
+    laps: f32,
+    pushing: bool,
+    occluded_within: f32,
+    /// Direction of the goal light (world frame, rad) when last seen.
+    goal_dir: Option<f32>,
+    pusher_kind: Pusher,
+    push_speed: f32,
+    hidden_s: f32,
+    /// `edge` pusher: pushing now, and since when the goal has been hidden / visible.
+    pushing_now: bool,
+    hidden_since: Option<f32>,
+    visible_since: Option<f32>,
+    /// Readings handed to the pusher (the robot's own, light possibly filled in from memory).
+    seen: Readings,
+    layout: SensorLayout,
+}
+
+impl FillTransport {
+    /// A controller with parameters `p` for robots with `layout`.
+    pub fn new(p: Params, layout: &SensorLayout) -> FillTransport {
+        FillTransport {
+            filler: Filler::new(p.fill, layout),
+            pusher: Occlusion::new(p.push, layout),
+            laps: p.laps,
+            pushing: false,
+            occluded_within: p.occluded_within_deg.to_radians(),
+            goal_dir: None,
+            pusher_kind: p.pusher,
+            push_speed: p.push_speed,
+            hidden_s: p.hidden_s,
+            pushing_now: false,
+            hidden_since: None,
+            visible_since: None,
+            seen: Readings::default(),
+            layout: layout.clone(),
+        }
+    }
+
+    /// Whether this robot has finished filling and now pushes.
+    pub fn is_pusher(&self) -> bool {
+        self.pushing
+    }
+}
+
+impl FillTransport {
+    /// Remembers where the goal was last seen and, when the light is hidden although the object
+    /// is not between the robot and that direction, hands the pusher a faint light from there.
+    fn filter_light(&mut self, r: &Readings) {
+        self.seen.clone_from(r);
+        if let Some(b) = filling::light_bearing(r, &self.layout) {
+            self.goal_dir = Some(wrap_angle(b + r.pose.theta));
+            return;
+        }
+        let (Some(goal), Some(c)) = (self.goal_dir, r.beacon) else {
+            return;
+        };
+        let to = c - r.pose.position();
+        let centre_dir = to.y.atan2(to.x);
+        if wrap_angle(centre_dir - goal).abs() <= self.occluded_within {
+            return;
+        }
+        let rel = wrap_angle(goal - r.pose.theta);
+        let nearest = self
+            .layout
+            .light_angles
+            .iter()
+            .enumerate()
+            .min_by(|a, b| {
+                wrap_angle(a.1 - rel)
+                    .abs()
+                    .total_cmp(&wrap_angle(b.1 - rel).abs())
+            })
+            .map(|(i, _)| i);
+        if let Some(i) = nearest {
+            if let Some(v) = self.seen.light.get_mut(i) {
+                *v = 0.01;
+            }
+        }
+    }
+}
+
+impl FillTransport {
+    /// The `edge` pusher: follow the pseudo object's edge; where the goal is hidden by it,
+    /// push toward its centre.
+    fn edge_push(&mut self, rng: &mut RobotRng) -> Actuation {
+        let r = &self.seen;
+        let now = r.time_s;
+        let hidden = !r.light.is_empty() && r.light.iter().all(|v| *v <= 0.0);
+        if hidden {
+            self.visible_since = None;
+            self.hidden_since.get_or_insert(now);
+        } else {
+            self.hidden_since = None;
+            self.visible_since.get_or_insert(now);
+        }
+        let long = |since: Option<f32>| since.is_some_and(|t| now - t >= self.hidden_s - 1e-4);
+        let touching = matches!(self.filler.fill_state(), FillState::Follow | FillState::Arc);
+        if self.pushing_now && long(self.visible_since) {
+            self.pushing_now = false;
+        } else if !self.pushing_now && touching && long(self.hidden_since) {
+            self.pushing_now = true;
+        }
+        let centre = r.beacon;
+        let target = centre.map(|c| {
+            let to = c - r.pose.position();
+            wrap_angle(to.y.atan2(to.x) - r.pose.theta)
+        });
+        if self.pushing_now {
+            if let Some(b) = target {
+                // Push toward where the goal was last seen, as long as the object's centre is
+                // ahead; without a memory of the goal, toward the centre.
+                let aim = match self.goal_dir {
+                    Some(g) => {
+                        let rel = wrap_angle(g - r.pose.theta);
+                        if wrap_angle(rel - b).abs() < 1.0 {
+                            0.5 * (rel + b)
+                        } else {
+                            b
+                        }
+                    }
+                    None => b,
+                };
+                let fwd = if aim.abs() < 0.5 {
+                    self.push_speed
+                } else {
+                    0.0
+                };
+                let turn = (3.0 * aim).clamp(-3.0, 3.0);
+                return Actuation::from_twist(fwd, turn, &self.layout).with_led(Color::Red);
+            }
+            self.pushing_now = false;
+        }
+        let seen = std::mem::take(&mut self.seen);
+        let act = self.filler.step_guided(&seen, rng, target, centre);
+        self.seen = seen;
+        act.with_led(Color::Yellow)
+    }
+}
+
+impl Controller for FillTransport {
+    fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
+        self.filter_light(r);
+        if !self.pushing {
+            let centre = r.beacon;
+            let target = centre.map(|c| {
+                let to = c - r.pose.position();
+                wrap_angle(to.y.atan2(to.x) - r.pose.theta)
+            });
+            let act = self.filler.step_guided(r, rng, target, centre);
+            let st = self.filler.fill_state();
+            let done = self.filler.circled().abs() >= self.laps * FULL_TURN
+                && matches!(st, FillState::Follow | FillState::Arc);
+            if !done || st == FillState::Stopped {
+                return act;
+            }
+            self.pushing = true;
+            self.filler.set_stopping(false);
+        }
+        if self.pusher_kind == Pusher::Edge {
+            return self.edge_push(rng);
+        }
+        let act = self.pusher.step(&self.seen, rng);
+        let led = if self.pusher.is_pushing() {
+            Color::Red
+        } else {
+            Color::Yellow
+        };
+        act.with_led(led)
+    }
+
+    fn state(&self) -> &'static str {
+        if self.pushing && self.pusher_kind == Pusher::Edge {
+            if self.pushing_now {
+                "push"
+            } else {
+                "push-follow"
+            }
+        } else if self.pushing {
+            match self.pusher.state() {
+                "search" => "push-search",
+                "approach" => "push-approach",
+                "circle" => "push-circle",
+                "escape" => "push-escape",
+                other => other,
+            }
+        } else {
+            self.filler.fill_state().name()
+        }
+    }
+}

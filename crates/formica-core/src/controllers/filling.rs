@@ -1,0 +1,654 @@
+//! `filling`: concave filling, the seed paper's Experiment 1, with its known failure fixed.
+//!
+//! Each robot, on its own and without messages:
+//!
+//! 1. **search / approach**: steers toward the summed light vector of the object's beacon light
+//!    (the light hangs above the object); random walk while the light is hidden.
+//! 2. **follow**: on touching something that is *object-like* (see below), follows its edge with
+//!    the **left-hand rule** (the edge stays on the robot's left), at about `follow_reading`.
+//!    Where the edge turns away (a convex corner), it arcs left for up to `lost_s` to find it
+//!    again, then approaches the light again.
+//! 3. **check**: where the object surrounds the robot over more than pi, it stops and creeps
+//!    into the spot. The test, from the proximity ring: at least `stop_count` of 8 sensors
+//!    (the seed's 4; scaled for other rings) read more than `fire_threshold` *and are
+//!    object-like*. A flat wall never lights more than 3 of the 8 sensors at that threshold;
+//!    the inside of a 90 degree corner, or a wall next to an attached robot, lights 4 or 5.
+//!    A robot pressed on 2 sensors (`strong_count`) with a third firing also checks: in an
+//!    obtuse corner only some headings light the 4th sensor, so the check swings the heading
+//!    by `swing`.
+//! 4. **attach**: if the test passes on at least a third of the ticks of the `hold_s` check
+//!    (and the robot stays in contact), the robot asks to attach (`AttachCommand::Attach`,
+//!    once snug) until `Readings::attached` says it worked, then turns its LEDs blue and
+//!    stays: it is now part of the pseudo object. If attaching
+//!    fails within `attach_timeout_s`, or the surround breaks during the check, it goes back to
+//!    following and does not test again for `retry_s`.
+//!
+//! **The fix of the seed's failure** (robots that stop because neighbours, not the object,
+//! surround them). Moving robots show red LEDs, attached ones blue. With `filter_neighbours`
+//! (default), the robot reads its colour-blob camera: a proximity sensor whose bearing falls on
+//! a *red/non-blue robot* blob within proximity range (within the neighbour's angular half-width
+//! plus 0.15 rad) is explained by a moving neighbour and is not object-like. Attached (blue)
+//! robots and the object itself are object-like. With `require_object` (default) the stop test
+//! also needs the object or a blue robot in sight within proximity range, so arena walls and
+//! their corners (invisible to the camera) never make a robot stop. Together with the `hold_s`
+//! persistence test while creeping, a robot stops only where the object (or the pseudo object)
+//! really surrounds it. `filter_neighbours = false, require_object = false, hold_s = 0`
+//! reproduces the seed's rule.
+
+use crate::controller::{
+    parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
+};
+use crate::geometry::{wrap_angle, Vec2};
+use crate::scenario::Color;
+use crate::sensors::{Readings, SensorLayout, SensorNeeds};
+use rand::Rng;
+use serde::Deserialize;
+use std::f32::consts::{FRAC_PI_2, PI, TAU};
+
+/// Parameters of `filling` (all optional; defaults suit Khepera IV and the seed's objects).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Speed toward the beacon (m/s). Default 0.1 (the seed's maximum).
+    pub speed: f32,
+    /// Speed following an edge (m/s). Default 0.1.
+    pub follow_speed: f32,
+    /// Speed of the random walk while the beacon is hidden (m/s). Default 0.1.
+    pub walk_speed: f32,
+    /// Mean seconds between random turns of the random walk. Default 5.
+    pub turn_every_s: f32,
+    /// Gain from heading error (rad) to turn rate (rad/s). Default 3.
+    pub turn_gain: f32,
+    /// Largest turn rate (rad/s). Default 3.
+    pub max_turn: f32,
+    /// Proximity reading above which a sensor counts as firing in the stop test. Default 0.05
+    /// (within about 0.10 m of the body).
+    pub fire_threshold: f32,
+    /// Proximity readings at or below this are taken as nothing (sensor noise). Default 0.03.
+    pub noise_floor: f32,
+    /// Firing object-like sensors (of 8; scaled for other rings) that make the object surround
+    /// the robot over more than pi. Default 4 (the seed's).
+    pub stop_count: u32,
+    /// Reading above which a sensor counts as pressed against something. Default 0.7.
+    pub strong_reading: f32,
+    /// Pressed object-like sensors (of 8) that, with one sensor short of `stop_count` firing,
+    /// start a check (pressed into an obtuse corner, only 3 sensors may reach the object).
+    /// Default 2.
+    pub strong_count: u32,
+    /// Largest proximity reading kept on the left while following. Default 0.85 (a gap of about 4.5 cm).
+    pub follow_reading: f32,
+    /// Turn rate per unit of reading error while following (rad/s). Default 2.
+    pub follow_gain: f32,
+    /// Reading ahead (within 50 degrees of the heading) that stops forward motion. Default 0.5.
+    pub front_threshold: f32,
+    /// Seconds of arcing left after losing the edge before approaching again. Default 4.
+    pub lost_s: f32,
+    /// Radius of that arc (m). Default 0.12.
+    pub arc_radius: f32,
+    /// Seconds of creeping into the spot during which the surround is checked. Default 1.5.
+    pub hold_s: f32,
+    /// Seconds to wait for the attachment before giving up. Default 3.
+    pub attach_timeout_s: f32,
+    /// Seconds without a new stop test after a failed one. Default 5.
+    pub retry_s: f32,
+    /// Creeping speed into the spot during the check (m/s). Default 0.04.
+    pub creep_speed: f32,
+    /// Amplitude (rad) of the heading swing during the check. Default 0.25.
+    pub swing: f32,
+    /// Ignore proximity hits explained by moving (non-blue) neighbours seen by the camera.
+    /// Default true.
+    pub filter_neighbours: bool,
+    /// Stop only with the object or an attached (blue) robot in camera sight within proximity
+    /// range (body radius + proximity range + 0.02 from the robot's centre). Default true.
+    pub require_object: bool,
+    /// With `require_object`: instead, stop only with the object itself (not an attached
+    /// robot) in sight, its nearest point within this distance (m) of the robot's centre. This
+    /// bounds how deep attached robots stack on the object. Default none (`fill-transport`
+    /// sets 0.21 m).
+    pub object_reach: Option<f32>,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            speed: 0.1,
+            follow_speed: 0.1,
+            walk_speed: 0.1,
+            turn_every_s: 5.0,
+            turn_gain: 3.0,
+            max_turn: 3.0,
+            fire_threshold: 0.05,
+            noise_floor: 0.03,
+            stop_count: 4,
+            strong_reading: 0.7,
+            strong_count: 2,
+            follow_reading: 0.85,
+            follow_gain: 2.0,
+            front_threshold: 0.5,
+            lost_s: 4.0,
+            arc_radius: 0.12,
+            hold_s: 1.5,
+            attach_timeout_s: 3.0,
+            retry_s: 5.0,
+            creep_speed: 0.04,
+            swing: 0.25,
+            filter_neighbours: true,
+            require_object: true,
+            object_reach: None,
+        }
+    }
+}
+
+impl Params {
+    /// Rejects values that make no sense (non-positive speeds and gains, negative times).
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("speed", self.speed),
+            ("follow_speed", self.follow_speed),
+            ("walk_speed", self.walk_speed),
+            ("turn_every_s", self.turn_every_s),
+            ("turn_gain", self.turn_gain),
+            ("max_turn", self.max_turn),
+            ("fire_threshold", self.fire_threshold),
+            ("follow_reading", self.follow_reading),
+            ("front_threshold", self.front_threshold),
+            ("arc_radius", self.arc_radius),
+            ("attach_timeout_s", self.attach_timeout_s),
+            ("creep_speed", self.creep_speed),
+        ];
+        for (name, v) in positive {
+            if !(v > 0.0) || !v.is_finite() {
+                return Err(format!("`{name}` must be a positive number, got {v}"));
+            }
+        }
+        let non_negative = [
+            ("follow_gain", self.follow_gain),
+            ("noise_floor", self.noise_floor),
+            ("lost_s", self.lost_s),
+            ("hold_s", self.hold_s),
+            ("retry_s", self.retry_s),
+            ("swing", self.swing),
+        ];
+        for (name, v) in non_negative {
+            if !(v >= 0.0) || !v.is_finite() {
+                return Err(format!("`{name}` must be zero or more, got {v}"));
+            }
+        }
+        if self.stop_count == 0 || self.stop_count > 8 {
+            return Err(format!(
+                "`stop_count` must be 1 to 8, got {}",
+                self.stop_count
+            ));
+        }
+        Ok(())
+    }
+
+    /// The sensors a filler with these parameters reads (besides what guides it).
+    pub fn needs(&self) -> SensorNeeds {
+        SensorNeeds {
+            proximity: true,
+            light: true,
+            beacon: false,
+            camera: self.filter_neighbours || self.require_object,
+        }
+    }
+}
+
+/// Builds the factory.
+pub fn factory(
+    params: Option<&toml::Table>,
+    layout: &SensorLayout,
+) -> Result<ControllerFactory, String> {
+    let p: Params = parse_params(params)?;
+    p.validate()?;
+    let layout = layout.clone();
+    Ok(ControllerFactory::new(p.needs(), move || {
+        Box::new(Filling::new(p.clone(), &layout))
+    }))
+}
+
+/// States of a filling robot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FillState {
+    /// Beacon unknown: random walk.
+    Search,
+    /// Steering toward the beacon.
+    Approach,
+    /// Following an edge with the left-hand rule.
+    Follow,
+    /// Lost the edge: arcing left to find it again.
+    Arc,
+    /// Surrounded: creeping into the spot while the surround is checked.
+    Check,
+    /// Asking to attach.
+    Attach,
+    /// Attached: part of the pseudo object.
+    Stopped,
+}
+
+impl FillState {
+    /// Short name for viewers and metrics.
+    pub fn name(self) -> &'static str {
+        match self {
+            FillState::Search => "search",
+            FillState::Approach => "approach",
+            FillState::Follow => "follow",
+            FillState::Arc => "arc",
+            FillState::Check => "check",
+            FillState::Attach => "attach",
+            FillState::Stopped => "stopped",
+        }
+    }
+}
+
+/// What the proximity ring and camera say this tick.
+#[derive(Debug, Clone, Copy, Default)]
+struct Percept {
+    /// Summed vector of object-like readings (robot frame).
+    obj: Vec2,
+    /// Largest object-like reading.
+    obj_max: f32,
+    /// Object-like sensors above the firing threshold.
+    count: usize,
+    /// Object-like sensors above `strong_reading`.
+    strong: usize,
+    /// Summed vector of readings explained by moving neighbours.
+    nb: Vec2,
+    /// Largest reading within 50 degrees of the heading (anything).
+    front: f32,
+    /// The object or an attached robot is in camera sight within proximity range.
+    object_seen: bool,
+}
+
+/// The filling behaviour, guided by a bearing supplied each tick (the beacon light for
+/// `filling`, the object's centre for `fill-transport`). Embeddable.
+#[derive(Debug, Clone)]
+pub struct Filler {
+    p: Params,
+    layout: SensorLayout,
+    state: FillState,
+    since_s: f32,
+    last_s: f32,
+    /// Last tick with object-like contact (s).
+    contact_s: f32,
+    /// Last tick the surround held during a check (s).
+    held_s: f32,
+    /// No stop test before this time (s).
+    retry_until: f32,
+    walk_turn: f32,
+    walk_left_s: f32,
+    /// Angle swept around the reference point since the first contact (rad).
+    circled: f32,
+    /// Whether the robot has touched something object-like yet.
+    touched: bool,
+    last_angle: Option<f32>,
+    stop_needed: usize,
+    strong_needed: usize,
+    /// Whether the stop test runs (off: follow edges for ever, as pushers do).
+    stopping: bool,
+    /// Ticks of the current check, and how many of them passed the stop test.
+    checks: u32,
+    passes: u32,
+}
+
+impl Filler {
+    /// A filler with parameters `p` for robots with `layout`.
+    pub fn new(p: Params, layout: &SensorLayout) -> Filler {
+        let n = layout.proximity_angles.len().max(1);
+        let stop_needed = ((p.stop_count as usize * n) as f32 / 8.0).ceil() as usize;
+        let strong_needed = ((p.strong_count as usize * n) as f32 / 8.0).ceil().max(1.0) as usize;
+        Filler {
+            p,
+            layout: layout.clone(),
+            state: FillState::Approach,
+            since_s: 0.0,
+            last_s: 0.0,
+            contact_s: f32::NEG_INFINITY,
+            held_s: 0.0,
+            retry_until: f32::NEG_INFINITY,
+            walk_turn: 0.0,
+            walk_left_s: 0.0,
+            circled: 0.0,
+            touched: false,
+            last_angle: None,
+            stop_needed: stop_needed.max(1),
+            stopping: true,
+            checks: 0,
+            passes: 0,
+            strong_needed,
+        }
+    }
+
+    /// Turns the stop test on or off (off: the robot only approaches and follows edges).
+    pub fn set_stopping(&mut self, on: bool) {
+        self.stopping = on;
+    }
+
+    /// Current state.
+    pub fn fill_state(&self) -> FillState {
+        self.state
+    }
+
+    /// Angle (rad, counter-clockwise positive) swept around the reference point given to
+    /// [`Filler::step_guided`] since the robot first touched something object-like.
+    pub fn circled(&self) -> f32 {
+        self.circled
+    }
+
+    fn set_state(&mut self, s: FillState, now: f32) {
+        if s != self.state {
+            self.state = s;
+            self.since_s = now;
+        }
+    }
+
+    fn twist(&self, forward: f32, turn: f32) -> Actuation {
+        let t = turn.clamp(-self.p.max_turn, self.p.max_turn);
+        Actuation::from_twist(forward, t, &self.layout)
+    }
+
+    fn perceive(&self, r: &Readings) -> Percept {
+        let mut out = Percept::default();
+        let reach = self.layout.radius + self.layout.proximity_range + 0.02;
+        let rad = self.layout.radius;
+        for b in &r.blobs {
+            let seen = match self.p.object_reach {
+                Some(d) => !b.is_robot && b.distance <= d,
+                None => b.distance <= reach && (!b.is_robot || b.color == Color::Blue),
+            };
+            out.object_seen |= seen;
+        }
+        for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
+            if *v <= self.p.noise_floor {
+                continue;
+            }
+            let dir = Vec2::new(a.cos(), a.sin());
+            if wrap_angle(*a).abs() < 0.88 {
+                out.front = out.front.max(*v);
+            }
+            let neighbour = self.p.filter_neighbours
+                && r.blobs.iter().any(|b| {
+                    if !b.is_robot || b.color == Color::Blue || b.distance > reach {
+                        return false;
+                    }
+                    let centre = b.distance + rad;
+                    let half = (rad / centre).min(1.0).asin() + 0.15;
+                    wrap_angle(a - b.bearing).abs() <= half
+                });
+            if neighbour {
+                out.nb += dir * *v;
+            } else {
+                out.obj += dir * *v;
+                out.obj_max = out.obj_max.max(*v);
+                if *v > self.p.fire_threshold {
+                    out.count += 1;
+                }
+                if *v >= self.p.strong_reading {
+                    out.strong += 1;
+                }
+            }
+        }
+        if !self.p.require_object {
+            out.object_seen = true;
+        }
+        out
+    }
+
+    /// Whether the stop test passes on this percept.
+    fn surrounded(&self, pc: &Percept) -> bool {
+        pc.count >= self.stop_needed && pc.object_seen
+    }
+
+    /// Whether a check is worth starting: surrounded, or pressed against something over 3
+    /// sensors (an obtuse corner shows its 4th sensor only at some headings; the check turns
+    /// the robot to look).
+    fn candidate(&self, pc: &Percept) -> bool {
+        self.surrounded(pc)
+            || (pc.count + 1 >= self.stop_needed
+                && pc.strong >= self.strong_needed
+                && pc.object_seen)
+    }
+
+    /// Left-hand edge following on object-like readings; anything ahead stops forward motion.
+    fn follow(&self, pc: &Percept) -> Actuation {
+        let beta = pc.obj.y.atan2(pc.obj.x);
+        let err = wrap_angle(beta - FRAC_PI_2);
+        let mut turn =
+            self.p.turn_gain * err + self.p.follow_gain * (self.p.follow_reading - pc.obj_max);
+        let mut fwd = self.p.follow_speed * (1.0 - err.abs() / PI).max(0.2);
+        if pc.front > self.p.front_threshold {
+            fwd = 0.0;
+            turn = turn.min(-0.5 * self.p.max_turn);
+        }
+        self.twist(fwd, turn)
+    }
+
+    /// Toward `target` (robot-frame bearing), or a random walk without one; around neighbours.
+    fn approach(&mut self, r: &Readings, rng: &mut RobotRng, target: Option<f32>) -> Actuation {
+        let dt = (r.time_s - self.last_s).max(0.0);
+        let (fwd, turn) = match target {
+            Some(b) => {
+                let fwd = if b.abs() > 1.2 {
+                    0.0
+                } else {
+                    self.p.speed * b.cos().max(0.0)
+                };
+                (fwd, self.p.turn_gain * b)
+            }
+            None => {
+                if self.walk_left_s > 0.0 {
+                    self.walk_left_s -= dt;
+                    (self.p.walk_speed * 0.3, self.walk_turn)
+                } else {
+                    if rng.random::<f32>() < dt / self.p.turn_every_s {
+                        self.walk_left_s = rng.random_range(0.3..1.5);
+                        self.walk_turn = if rng.random::<bool>() { 1.5 } else { -1.5 };
+                    }
+                    (self.p.walk_speed, 0.0)
+                }
+            }
+        };
+        self.twist(fwd, turn)
+    }
+
+    /// One tick. `target`: bearing (robot frame) to steer toward when not touching anything
+    /// (None: random walk). `centre`: a world point to count the angle swept around while
+    /// following (the object's centre), if known.
+    pub fn step_guided(
+        &mut self,
+        r: &Readings,
+        rng: &mut RobotRng,
+        target: Option<f32>,
+        centre: Option<Vec2>,
+    ) -> Actuation {
+        let now = r.time_s;
+        if self.state == FillState::Stopped || (r.attached && self.state == FillState::Attach) {
+            self.set_state(FillState::Stopped, now);
+            self.last_s = now;
+            return Actuation {
+                led: Color::Blue,
+                ..Actuation::default()
+            };
+        }
+        let pc = self.perceive(r);
+        let contact = pc.obj_max > 0.0;
+        if contact {
+            self.contact_s = now;
+        }
+        // Angle swept around the centre since the robot first touched something object-like.
+        if contact {
+            self.touched = true;
+        }
+        match (self.touched, centre) {
+            (true, Some(c)) => {
+                let d = r.pose.position() - c;
+                let a = d.y.atan2(d.x);
+                if let Some(last) = self.last_angle {
+                    self.circled += wrap_angle(a - last);
+                }
+                self.last_angle = Some(a);
+            }
+            _ => self.last_angle = None,
+        }
+
+        let mut hops = 0;
+        let act = loop {
+            hops += 1;
+            if hops > 4 {
+                break self.twist(0.0, 0.0);
+            }
+            match self.state {
+                FillState::Search | FillState::Approach => {
+                    if contact {
+                        self.set_state(FillState::Follow, now);
+                        continue;
+                    }
+                    let st = if target.is_some() {
+                        FillState::Approach
+                    } else {
+                        FillState::Search
+                    };
+                    self.set_state(st, now);
+                    let mut a = self.approach(r, rng, target);
+                    // A moving neighbour ahead: turn right in place (pass it on the outside).
+                    if pc.nb.x > 0.3 && pc.front > self.p.front_threshold * 0.5 {
+                        a = self.twist(0.0, -0.5 * self.p.max_turn);
+                    }
+                    break a;
+                }
+                FillState::Follow => {
+                    if self.stopping && now >= self.retry_until && self.candidate(&pc) {
+                        self.held_s = now;
+                        self.checks = 0;
+                        self.passes = 0;
+                        self.set_state(FillState::Check, now);
+                        continue;
+                    }
+                    if !contact {
+                        self.set_state(FillState::Arc, now);
+                        continue;
+                    }
+                    break self.follow(&pc);
+                }
+                FillState::Arc => {
+                    if contact {
+                        self.set_state(FillState::Follow, now);
+                        continue;
+                    }
+                    if now - self.since_s >= self.p.lost_s {
+                        self.set_state(FillState::Approach, now);
+                        continue;
+                    }
+                    if pc.front > self.p.front_threshold {
+                        break self.twist(0.0, -0.5 * self.p.max_turn);
+                    }
+                    let fwd = self.p.follow_speed * 0.8;
+                    break self.twist(fwd, fwd / self.p.arc_radius);
+                }
+                FillState::Check | FillState::Attach => {
+                    if pc.count + 1 >= self.stop_needed && pc.object_seen {
+                        self.held_s = now;
+                    } else if now - self.held_s > 0.35 {
+                        self.retry_until = now + self.p.retry_s;
+                        self.set_state(FillState::Follow, now);
+                        continue;
+                    }
+                    let t = now - self.since_s;
+                    if self.state == FillState::Check {
+                        self.checks += 1;
+                        if self.surrounded(&pc) {
+                            self.passes += 1;
+                        }
+                        if t >= self.p.hold_s {
+                            // Surrounded for at least a third of the check: attach.
+                            if self.passes * 3 >= self.checks && self.passes > 0 {
+                                self.set_state(FillState::Attach, now);
+                            } else {
+                                self.retry_until = now + self.p.retry_s;
+                                self.set_state(FillState::Follow, now);
+                                continue;
+                            }
+                        }
+                    } else if t > self.p.attach_timeout_s {
+                        self.retry_until = now + self.p.retry_s;
+                        self.set_state(FillState::Follow, now);
+                        continue;
+                    }
+                    // Creep into the spot, swinging the heading by `swing` so that the ring
+                    // samples it at all offsets.
+                    let beta = if pc.obj.length() > 1e-6 {
+                        pc.obj.y.atan2(pc.obj.x)
+                    } else {
+                        0.0
+                    };
+                    let swing = if self.state == FillState::Check {
+                        self.p.swing * (TAU * t / self.p.hold_s.max(0.5)).sin()
+                    } else {
+                        0.0
+                    };
+                    let fwd = self.p.creep_speed * beta.cos().max(0.0);
+                    let mut a = self.twist(fwd, 0.5 * self.p.turn_gain * (beta + swing));
+                    // Attach once snug (pressed on more sensors than a check needs), or after
+                    // half the time-out if the robot cannot get closer.
+                    let snug = pc.strong > self.strong_needed;
+                    if self.state == FillState::Attach
+                        && (snug || t > 0.5 * self.p.attach_timeout_s)
+                    {
+                        a.attach = AttachCommand::Attach;
+                    }
+                    break a;
+                }
+                FillState::Stopped => {
+                    break Actuation::default();
+                }
+            }
+        };
+        self.last_s = now;
+        let led = if self.state == FillState::Stopped {
+            Color::Blue
+        } else {
+            Color::Red
+        };
+        act.with_led(led)
+    }
+}
+
+/// The `filling` controller: a [`Filler`] guided by the object's beacon light.
+#[derive(Debug, Clone)]
+pub struct Filling {
+    filler: Filler,
+    layout: SensorLayout,
+}
+
+impl Filling {
+    /// A controller with parameters `p` for robots with `layout`.
+    pub fn new(p: Params, layout: &SensorLayout) -> Filling {
+        Filling {
+            filler: Filler::new(p, layout),
+            layout: layout.clone(),
+        }
+    }
+}
+
+/// Bearing (robot frame) of the summed light vector, if any light is seen.
+pub fn light_bearing(r: &Readings, layout: &SensorLayout) -> Option<f32> {
+    let mut v = Vec2::ZERO;
+    for (l, a) in r.light.iter().zip(&layout.light_angles) {
+        v += Vec2::new(a.cos(), a.sin()) * *l;
+    }
+    (v.length() > 1e-6).then(|| v.y.atan2(v.x))
+}
+
+impl Controller for Filling {
+    fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
+        let target = light_bearing(r, &self.layout);
+        self.filler.step_guided(r, rng, target, None)
+    }
+
+    fn state(&self) -> &'static str {
+        self.filler.state.name()
+    }
+}
+
+/// A full turn (rad), for callers counting laps with [`Filler::circled`].
+pub const FULL_TURN: f32 = TAU;

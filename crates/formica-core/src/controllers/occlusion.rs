@@ -1,0 +1,855 @@
+//! `occlusion`: occlusion-based cooperative transport of convex objects (Chen et al., IEEE
+//! T-RO 2015), the seed paper's Experiment 2.
+//!
+//! Each robot, on its own and without communication:
+//!
+//! 1. **search / approach**: finds the object and drives to it. With `perception = "beacon"`
+//!    it steers to the object's centre (`Readings::beacon`, as in the seed); with
+//!    `perception = "camera"` it steers to the nearest object-coloured blob of its camera and
+//!    random-walks while it sees none. It does not shove what is in its way.
+//! 2. **circle**: follows the object's outline with the **left-hand rule** (default
+//!    `circle_side = "left"`): the object stays on the robot's left, so robots go round it
+//!    counter-clockwise seen from above, `circle_gap` from its surface, watching the goal light.
+//! 3. **push**: where the object hides the goal (every light sensor reads zero for
+//!    `hidden_s`), it turns to face the object along the surface normal (the bearing to the
+//!    nearest surface point), turned at most `push_goal_bias_deg` toward the goal, and pushes.
+//!    When the goal shows again (for `visible_s`), it goes back to circling.
+//! 4. **escape**: time-outs free stuck robots. A robot that should move but has not moved
+//!    `stuck_dist` in `stuck_s` (a pusher: `push_stuck_s`) backs off and turns away for
+//!    `escape_s`. A beacon robot circling with something other than the object right ahead
+//!    for `block_s` (a wall, a neighbour) goes round the other way for `reverse_s`.
+//!
+//! Two additions to Chen's rule make it work with Khepera IVs, whose light sensors sit 1.5 cm
+//! above the floor so that a neighbour within about 0.3 m hides the goal as well as the object
+//! does (with the rule alone, 8 % of the seed's trials succeed, see README):
+//!
+//! - **Which way the goal is.** Each time a robot sees the goal it takes its bearing (inverting
+//!   the sensors' spread law, [`light_bearing`]) and, with its own pose, intersects it with the
+//!   earlier bearings (least squares), so it knows where the goal is even while it is hidden.
+//! - **Hidden by the object, not a neighbour**: a dark goal counts only if the object's
+//!   direction (beacon: its centre; camera: the surface normal) is within
+//!   `occluder_angle_deg` of the goal's direction. With the beacon this also keeps pushers near
+//!   the line from the goal through the centre, so they turn the object little.
+//!
+//! Where the object's surface is: with the camera, the nearest object-coloured blob gives the
+//! inward surface normal and the gap exactly, and proximity hits in other directions or at other
+//! distances are neighbours or walls (the camera cannot see walls). With the beacon the robot
+//! only knows the centre: within `object_reach` of it, proximity hits on the half facing the
+//! centre are taken to be the object (neighbours and walls there fool it, as in the seed);
+//! farther out every hit is an obstacle.
+//!
+//! Set `occluder_angle_deg = 180` and `push_goal_bias_deg = 0` for Chen's rule alone.
+
+use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
+use crate::geometry::{wrap_angle, Vec2};
+use crate::scenario::Color;
+use crate::sensors::{Readings, SensorLayout, SensorNeeds};
+use rand::Rng;
+use serde::Deserialize;
+use std::f32::consts::{FRAC_PI_2, PI};
+
+/// How a robot finds the object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Perception {
+    /// Told the object's centre (`Readings::beacon`); proximity tells where its surface is.
+    #[default]
+    Beacon,
+    /// Sees the object's colour with the blob camera (`Readings::blobs`).
+    Camera,
+}
+
+/// Which way robots go round the object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Side {
+    /// Left-hand rule: object on the robot's left, counter-clockwise seen from above.
+    #[default]
+    Left,
+    /// Right-hand rule: object on the right, clockwise.
+    Right,
+    /// Whichever way is shorter to the side opposite the goal (as far as the robot knows); the
+    /// left-hand rule if it has not seen the goal yet.
+    Shortest,
+}
+
+/// Parameters of `occlusion` (all optional; defaults suit Khepera IV and the seed's 0.5 m box).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// `"beacon"` (default) or `"camera"`.
+    pub perception: Perception,
+    /// Way round the object: `"left"` (default), `"right"` or `"shortest"`.
+    pub circle_side: Side,
+    /// Colour of the object as the camera sees it (camera perception). Default `green`.
+    pub object_color: Color,
+    /// Speed driving to the object (m/s). Default 0.1.
+    pub approach_speed: f32,
+    /// Speed circling the object (m/s). Default 0.1.
+    pub circle_speed: f32,
+    /// Speed pushing (m/s). Default 0.1.
+    pub push_speed: f32,
+    /// Speed of the random walk while searching (camera, object unseen) (m/s). Default 0.1.
+    pub search_speed: f32,
+    /// Largest turn rate (rad/s). Default 3.0.
+    pub max_turn: f32,
+    /// Gain from heading error (rad) to turn rate (rad/s). Default 3.0.
+    pub turn_gain: f32,
+    /// Gap between body and object surface kept while circling (m). Default 0.03.
+    pub circle_gap: f32,
+    /// Heading correction per metre of gap error while circling (rad/m). Default 12.
+    pub gap_gain: f32,
+    /// Gap at which approach turns into circling (m). Default 0.06.
+    pub contact_gap: f32,
+    /// Largest heading error (rad) at which a pusher still drives forward. Default 0.5.
+    pub push_align: f32,
+    /// Largest angle (deg) by which a pusher turns from the surface normal toward the goal's
+    /// direction (0: along the normal, as Chen et al.). Default 45.
+    pub push_goal_bias_deg: f32,
+    /// Seconds the goal must stay hidden before a circling robot pushes. Default 0.3.
+    pub hidden_s: f32,
+    /// Seconds the goal must stay visible before a pusher circles again. Default 0.3.
+    pub visible_s: f32,
+    /// Proximity reading above which a non-object hit is avoided. Default 0.3.
+    pub avoid_threshold: f32,
+    /// Seconds without moving `stuck_dist` after which an approaching or circling robot escapes.
+    /// Default 8.
+    pub stuck_s: f32,
+    /// Seconds without moving `stuck_dist` after which a pusher gives up and escapes. Default 30.
+    pub push_stuck_s: f32,
+    /// Distance (m) that counts as having moved. Default 0.03.
+    pub stuck_dist: f32,
+    /// Seconds an escape lasts (backing off, then turning away). Default 2.
+    pub escape_s: f32,
+    /// Seconds with something other than the object (a wall, a neighbour) right ahead after
+    /// which a circling robot turns back and goes round the other way. Default: 3 with the
+    /// beacon; never with the camera (camera robots tell walls from neighbours and go round
+    /// neighbours; turning back at walls made them slower and fail more near a wall).
+    pub block_s: Option<f32>,
+    /// Seconds of circling the other way after the way round was blocked. Default 20.
+    pub reverse_s: f32,
+    /// Beacon perception: within this distance of the object's centre (m), proximity hits on
+    /// the side facing the centre are taken to be the object; farther out every hit is an
+    /// obstacle, and a circling robot counts as lost and approaches again. Should exceed the
+    /// object's largest radius plus about 0.2 m. Default 0.6.
+    pub object_reach: f32,
+    /// Largest angle (deg) between the goal's direction (triangulated from the bearings seen
+    /// so far) and the object's direction for a hidden goal to count as hidden *by the object*
+    /// (a neighbour right in front also hides it). 180 switches the check off. Default 30.
+    pub occluder_angle_deg: f32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            perception: Perception::Beacon,
+            object_color: Color::Green,
+            circle_side: Side::Left,
+            approach_speed: 0.1,
+            circle_speed: 0.1,
+            push_speed: 0.1,
+            search_speed: 0.1,
+            max_turn: 3.0,
+            turn_gain: 3.0,
+            circle_gap: 0.03,
+            gap_gain: 12.0,
+            contact_gap: 0.06,
+            push_align: 0.5,
+            push_goal_bias_deg: 45.0,
+            hidden_s: 0.3,
+            visible_s: 0.3,
+            avoid_threshold: 0.3,
+            stuck_s: 8.0,
+            push_stuck_s: 30.0,
+            stuck_dist: 0.03,
+            escape_s: 2.0,
+            block_s: None,
+            reverse_s: 20.0,
+            object_reach: 0.6,
+            occluder_angle_deg: 30.0,
+        }
+    }
+}
+
+/// Builds the factory.
+pub fn factory(
+    params: Option<&toml::Table>,
+    layout: &SensorLayout,
+) -> Result<ControllerFactory, String> {
+    let p: Params = parse_params(params)?;
+    p.validate()?;
+    let layout = layout.clone();
+    let needs = Occlusion::needs(&p);
+    Ok(ControllerFactory::new(needs, move || {
+        Box::new(Occlusion::new(p.clone(), &layout))
+    }))
+}
+
+impl Params {
+    /// Rejects speeds, gains and times that are not positive (or gaps that are negative).
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("approach_speed", self.approach_speed),
+            ("circle_speed", self.circle_speed),
+            ("push_speed", self.push_speed),
+            ("search_speed", self.search_speed),
+            ("max_turn", self.max_turn),
+            ("turn_gain", self.turn_gain),
+            ("contact_gap", self.contact_gap),
+            ("push_align", self.push_align),
+            ("stuck_s", self.stuck_s),
+            ("push_stuck_s", self.push_stuck_s),
+            ("stuck_dist", self.stuck_dist),
+            ("escape_s", self.escape_s),
+            ("object_reach", self.object_reach),
+            ("occluder_angle_deg", self.occluder_angle_deg),
+        ];
+        for (name, v) in positive {
+            if !(v > 0.0) || !v.is_finite() {
+                return Err(format!("`{name}` must be a positive number, got {v}"));
+            }
+        }
+        let non_negative = [
+            ("circle_gap", self.circle_gap),
+            ("gap_gain", self.gap_gain),
+            ("hidden_s", self.hidden_s),
+            ("visible_s", self.visible_s),
+            ("avoid_threshold", self.avoid_threshold),
+            ("reverse_s", self.reverse_s),
+            ("block_s", self.block_s.unwrap_or(0.0)),
+            ("push_goal_bias_deg", self.push_goal_bias_deg),
+        ];
+        for (name, v) in non_negative {
+            if !(v >= 0.0) || !v.is_finite() {
+                return Err(format!("`{name}` must be zero or more, got {v}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Behaviour states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    Search,
+    Approach,
+    Circle,
+    Push,
+    Escape,
+}
+
+/// Where the object's surface is, as far as this robot can tell.
+#[derive(Debug, Clone, Copy)]
+struct Surface {
+    /// Bearing of the nearest surface point, robot frame (rad): the inward surface normal.
+    bearing: f32,
+    /// Gap between the body and the surface (m).
+    gap: f32,
+}
+
+/// The occlusion-based transport controller. Embeddable: another controller may own one and
+/// call [`Controller::step`] on it for its pushing phase.
+#[derive(Debug, Clone)]
+pub struct Occlusion {
+    p: Params,
+    layout: SensorLayout,
+    state: State,
+    /// When the current state began (s).
+    since_s: f32,
+    /// Time of the last step (s).
+    last_s: f32,
+    /// Since when the goal has been hidden / visible (s).
+    hidden_since: Option<f32>,
+    visible_since: Option<f32>,
+    /// Progress watch: position and time of the last check.
+    anchor: Vec2,
+    anchor_s: f32,
+    /// Way round chosen on reaching the object (+1: object on the left).
+    side: f32,
+    /// Go round the other way until this time (s).
+    reverse_until: f32,
+    /// Since when something other than the object has been right ahead while circling (s).
+    blocked_since: Option<f32>,
+    /// World-frame direction of the goal when it was last seen (rad).
+    goal_dir: Option<f32>,
+    /// Where the goal is, triangulated from every bearing seen so far.
+    goal_fix: GoalFix,
+    /// Escape turn direction (+1 left, -1 right).
+    escape_turn: f32,
+    /// Random-walk turn while searching: rate and seconds left.
+    walk_turn: f32,
+    walk_left_s: f32,
+}
+
+impl Occlusion {
+    /// A controller with parameters `p` for robots with `layout`.
+    pub fn new(p: Params, layout: &SensorLayout) -> Occlusion {
+        Occlusion {
+            p,
+            layout: layout.clone(),
+            state: State::Approach,
+            since_s: 0.0,
+            last_s: 0.0,
+            hidden_since: None,
+            visible_since: None,
+            anchor: Vec2::ZERO,
+            anchor_s: f32::NAN,
+            side: 1.0,
+            reverse_until: f32::NEG_INFINITY,
+            blocked_since: None,
+            goal_dir: None,
+            goal_fix: GoalFix::default(),
+            escape_turn: 1.0,
+            walk_turn: 0.0,
+            walk_left_s: 0.0,
+        }
+    }
+
+    /// Seconds blocked before turning back (`Params::block_s` or its default).
+    fn block_s(&self) -> f32 {
+        match (self.p.block_s, self.p.perception) {
+            (Some(s), _) => s,
+            (None, Perception::Beacon) => 3.0,
+            (None, Perception::Camera) => f32::INFINITY,
+        }
+    }
+
+    /// The sensors a controller with parameters `p` reads.
+    pub fn needs(p: &Params) -> SensorNeeds {
+        SensorNeeds {
+            proximity: true,
+            light: true,
+            beacon: p.perception == Perception::Beacon,
+            camera: p.perception == Perception::Camera,
+        }
+    }
+
+    /// Its parameters.
+    pub fn params(&self) -> &Params {
+        &self.p
+    }
+
+    /// Whether the robot is pushing the object now.
+    pub fn is_pushing(&self) -> bool {
+        self.state == State::Push
+    }
+
+    fn set_state(&mut self, s: State, r: &Readings) {
+        if s != self.state {
+            self.state = s;
+            self.since_s = r.time_s;
+            self.anchor = r.pose.position();
+            self.anchor_s = r.time_s;
+        }
+    }
+
+    fn twist(&self, forward: f32, turn: f32) -> Actuation {
+        let t = turn.clamp(-self.p.max_turn, self.p.max_turn);
+        Actuation::from_twist(forward, t, &self.layout)
+    }
+
+    /// Bearing (robot frame) to the object's centre, with the beacon.
+    fn centre_bearing(&self, r: &Readings) -> Option<(f32, f32)> {
+        let c = r.beacon?;
+        let to = c - r.pose.position();
+        Some((wrap_angle(to.y.atan2(to.x) - r.pose.theta), to.length()))
+    }
+
+    /// The object's surface; the summed proximity vector (robot frame) of everything else; and
+    /// of the part of it that may be a wall (camera: hits where no neighbour's LED shows; beacon:
+    /// all of it).
+    fn perceive(&self, r: &Readings) -> (Option<Surface>, Vec2, Vec2) {
+        let range = self.layout.proximity_range;
+        match self.p.perception {
+            Perception::Camera => {
+                let seen = r
+                    .blobs
+                    .iter()
+                    .filter(|b| !b.is_robot && b.color == self.p.object_color)
+                    .min_by(|a, b| a.distance.total_cmp(&b.distance));
+                let surface = seen.map(|b| Surface {
+                    bearing: b.bearing,
+                    gap: (b.distance - self.layout.radius).max(0.0),
+                });
+                // Proximity hits off the object's direction, or nearer or farther than its surface (a
+                // neighbour in between), are others.
+                let mut other = Vec2::ZERO;
+                let mut wall = Vec2::ZERO;
+                for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
+                    if *v <= 0.0 {
+                        continue;
+                    }
+                    let est = (1.0 - v) * range;
+                    let is_object = surface.is_some_and(|s| {
+                        wrap_angle(a - s.bearing).abs() < 0.8 && (est - s.gap).abs() <= 0.04
+                    });
+                    if is_object {
+                        continue;
+                    }
+                    let dir = Vec2::new(a.cos(), a.sin()) * *v;
+                    other += dir;
+                    let is_robot = r.blobs.iter().any(|b| {
+                        b.is_robot
+                            && wrap_angle(b.bearing - a).abs() < 0.6
+                            && b.distance - self.layout.radius <= est + 0.05
+                    });
+                    if !is_robot {
+                        wall += dir;
+                    }
+                }
+                (surface, other, wall)
+            }
+            Perception::Beacon => {
+                let Some((cb, dist)) = self.centre_bearing(r) else {
+                    return (None, Vec2::ZERO, Vec2::ZERO);
+                };
+                let near = dist <= self.p.object_reach;
+                let mut obj = Vec2::ZERO;
+                let mut best = 0.0f32;
+                let mut other = Vec2::ZERO;
+                for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
+                    if *v <= 0.0 {
+                        continue;
+                    }
+                    let dir = Vec2::new(a.cos(), a.sin()) * *v;
+                    if near && wrap_angle(a - cb).abs() <= FRAC_PI_2 + 0.1 {
+                        obj += dir;
+                        best = best.max(*v);
+                    } else {
+                        other += dir;
+                    }
+                }
+                let surface = if !near {
+                    // Too far for the object to be in proximity range.
+                    Surface {
+                        bearing: cb,
+                        gap: dist,
+                    }
+                } else if best > 0.0 {
+                    Surface {
+                        bearing: obj.y.atan2(obj.x),
+                        gap: (1.0 - best) * range,
+                    }
+                } else {
+                    // Nothing sensed: the surface lies somewhere toward the centre.
+                    Surface {
+                        bearing: cb,
+                        gap: range + 0.05,
+                    }
+                };
+                (Some(surface), other, other)
+            }
+        }
+    }
+
+    /// Time-out bookkeeping: whether the robot has stayed put for `limit` seconds.
+    fn stuck(&mut self, r: &Readings, limit: f32) -> bool {
+        let here = r.pose.position();
+        if self.anchor_s.is_nan() || (here - self.anchor).length() >= self.p.stuck_dist {
+            self.anchor = here;
+            self.anchor_s = r.time_s;
+            return false;
+        }
+        r.time_s - self.anchor_s >= limit
+    }
+
+    /// Whether the goal has been hidden by the object for `hidden_s`, and visible for
+    /// `visible_s`. `object` is the object's bearing (robot frame).
+    fn goal_hidden(&mut self, r: &Readings, object: Option<f32>) -> (bool, bool) {
+        let dark = !r.light.is_empty() && r.light.iter().all(|v| *v <= 0.0);
+        if !dark {
+            if let Some(b) = light_bearing(&r.light, &self.layout.light_angles) {
+                let g = wrap_angle(b + r.pose.theta);
+                self.goal_dir = Some(g);
+                self.goal_fix.add(r.pose.position(), g);
+            }
+        }
+        // A hidden goal counts only if the object lies toward where the goal was.
+        let by_object = match (self.goal_direction(r), object) {
+            (Some(g), Some(o)) => {
+                wrap_angle(o + r.pose.theta - g).abs() <= self.p.occluder_angle_deg.to_radians()
+            }
+            _ => true,
+        };
+        let hidden = dark && by_object;
+        if hidden {
+            self.visible_since = None;
+            self.hidden_since.get_or_insert(r.time_s);
+        } else {
+            self.hidden_since = None;
+            self.visible_since.get_or_insert(r.time_s);
+        }
+        let long_hidden = self
+            .hidden_since
+            .is_some_and(|t| r.time_s - t >= self.p.hidden_s - 1e-4);
+        let long_visible = self
+            .visible_since
+            .is_some_and(|t| r.time_s - t >= self.p.visible_s - 1e-4);
+        (long_hidden, long_visible)
+    }
+
+    /// World-frame direction of the goal from here: toward the triangulated goal once the
+    /// bearings seen so far pin it down, otherwise the last bearing seen.
+    pub fn goal_direction(&self, r: &Readings) -> Option<f32> {
+        let here = r.pose.position();
+        match self.goal_fix.estimate() {
+            Some(g) if (g - here).length() > 0.05 => {
+                let d = g - here;
+                Some(d.y.atan2(d.x))
+            }
+            _ => self.goal_dir,
+        }
+    }
+
+    /// The way round (+1: object on the left) for a robot that sees the object at `bearing`.
+    fn choose_side(&self, r: &Readings, bearing: f32) -> f32 {
+        match (self.p.circle_side, self.goal_direction(r)) {
+            (Side::Left, _) | (Side::Shortest, None) => 1.0,
+            (Side::Right, _) => -1.0,
+            (Side::Shortest, Some(g)) => {
+                // Where the robot is, seen from the object, against where the back side is.
+                let here = wrap_angle(r.pose.theta + bearing + PI);
+                let back = wrap_angle(g + PI);
+                // Object on the left means going counter-clockwise round it.
+                if wrap_angle(back - here) >= 0.0 {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
+        }
+    }
+
+    fn escape(&mut self, r: &Readings, rng: &mut RobotRng) {
+        self.escape_turn = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        self.set_state(State::Escape, r);
+    }
+
+    /// Approach / search: drive toward the object, around other things.
+    fn approach(
+        &mut self,
+        r: &Readings,
+        rng: &mut RobotRng,
+        target: Option<f32>,
+        other: Vec2,
+    ) -> Actuation {
+        let avoid = self.avoid_turn(other);
+        match target {
+            Some(b) => {
+                let turn = self.p.turn_gain * b + avoid;
+                let fwd = if b.abs() > 1.2 {
+                    0.0
+                } else {
+                    self.p.approach_speed * b.cos().max(0.0)
+                };
+                // Something other than the object ahead: do not shove it, go round.
+                let fwd = if other.x > self.p.avoid_threshold {
+                    0.0
+                } else if other.length() > self.p.avoid_threshold && other.x > 0.0 {
+                    fwd * 0.3
+                } else {
+                    fwd
+                };
+                self.twist(fwd, turn)
+            }
+            None => {
+                let dt = (r.time_s - self.last_s).max(0.0);
+                if self.walk_left_s > 0.0 {
+                    self.walk_left_s -= dt;
+                    return self.twist(self.p.search_speed * 0.3, self.walk_turn + avoid);
+                }
+                if rng.random::<f32>() < dt / 5.0 {
+                    self.walk_left_s = rng.random_range(0.3..1.5);
+                    self.walk_turn = if rng.random::<bool>() { 1.5 } else { -1.5 };
+                }
+                let fwd = if other.length() > self.p.avoid_threshold && other.x > 0.0 {
+                    0.0
+                } else {
+                    self.p.search_speed
+                };
+                self.twist(fwd, avoid)
+            }
+        }
+    }
+
+    /// Turn rate away from what `other` (summed proximity of non-object hits) points at.
+    fn avoid_turn(&self, other: Vec2) -> f32 {
+        if other.length() <= self.p.avoid_threshold || other.x <= 0.0 {
+            return 0.0;
+        }
+        let side = if other.y > 0.0 { -1.0 } else { 1.0 };
+        side * self.p.max_turn * (other.length()).min(1.0)
+    }
+}
+
+/// Least-squares intersection of the bearing lines along which a robot has seen the goal.
+#[derive(Debug, Clone, Copy, Default)]
+struct GoalFix {
+    /// Sum of n n^T over observations (n: unit normal of the bearing line): xx, xy, yy.
+    a: [f32; 3],
+    /// Sum of n (n . p).
+    b: [f32; 2],
+    /// Last observation: where from and which way, to reject estimates behind the robot.
+    last: Option<(Vec2, f32)>,
+}
+
+impl GoalFix {
+    fn add(&mut self, p: Vec2, dir: f32) {
+        let n = Vec2::new(-dir.sin(), dir.cos());
+        let c = n.dot(p);
+        self.a[0] += n.x * n.x;
+        self.a[1] += n.x * n.y;
+        self.a[2] += n.y * n.y;
+        self.b[0] += n.x * c;
+        self.b[1] += n.y * c;
+        self.last = Some((p, dir));
+    }
+
+    /// The goal's floor point, once bearings from different places (at least about 3 degrees
+    /// apart) pin it down.
+    fn estimate(&self) -> Option<Vec2> {
+        let [xx, xy, yy] = self.a;
+        let det = xx * yy - xy * xy;
+        let tr = xx + yy;
+        if tr <= 0.0 || det < 0.0005 * tr * tr {
+            return None;
+        }
+        let g = Vec2::new(
+            (yy * self.b[0] - xy * self.b[1]) / det,
+            (xx * self.b[1] - xy * self.b[0]) / det,
+        );
+        let (p, dir) = self.last?;
+        let d = g - p;
+        (d.length() > 1e-3 && wrap_angle(d.y.atan2(d.x) - dir).abs() < 0.5).then_some(g)
+    }
+}
+
+/// Bearing of a light from the readings of sensors at `angles`, inverting the spread law of
+/// the built-in models (a sensor `d` away from the light's bearing reads `v (1 - 2 d / pi)`):
+/// from the strongest sensor and its stronger neighbour. A plain vector sum of the readings
+/// is off by up to about 10 degrees with 8 sensors.
+pub fn light_bearing(light: &[f32], angles: &[f32]) -> Option<f32> {
+    let n = light.len().min(angles.len());
+    let (i, &ri) = light[..n]
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))?;
+    if ri <= 0.0 {
+        return None;
+    }
+    if n < 2 {
+        return Some(angles[i]);
+    }
+    let (prev, next) = ((i + n - 1) % n, (i + 1) % n);
+    let j = if light[next] >= light[prev] {
+        next
+    } else {
+        prev
+    };
+    let rj = light[j];
+    let span = wrap_angle(angles[j] - angles[i]);
+    let gap = span.abs();
+    // r_i + r_j = v (2 - 2 gap / pi); r_i - r_j = v 2 (d_j - d_i) / pi; d_i + d_j = gap.
+    let v = (ri + rj) / (2.0 - 2.0 * gap / PI).max(1e-3);
+    let diff = ((ri - rj) * PI / (2.0 * v)).clamp(0.0, gap);
+    let d_i = (gap - diff) / 2.0;
+    Some(wrap_angle(angles[i] + span.signum() * d_i))
+}
+
+impl Controller for Occlusion {
+    fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
+        let (surface, other, wall) = self.perceive(r);
+        let object_dir = match self.p.perception {
+            Perception::Beacon => self.centre_bearing(r).map(|(b, _)| b),
+            Perception::Camera => surface.map(|s| s.bearing),
+        };
+        let (hidden, visible) = self.goal_hidden(r, object_dir);
+        let now = r.time_s;
+        // State changes re-run the step in the new state; a few at most per tick.
+        let mut hops = 0;
+        let act = loop {
+            hops += 1;
+            if hops > 4 {
+                // States disagree (should not happen): back off and try again.
+                self.escape(r, rng);
+                break self.twist(-self.p.approach_speed, 0.0);
+            }
+            match self.state {
+                State::Search | State::Approach => {
+                    let target = match (self.p.perception, surface) {
+                        (Perception::Camera, Some(s)) => Some(s.bearing),
+                        (Perception::Camera, None) => None,
+                        (Perception::Beacon, _) => self.centre_bearing(r).map(|(b, _)| b),
+                    };
+                    if let Some(s) = surface.filter(|s| s.gap <= self.p.contact_gap) {
+                        self.side = self.choose_side(r, s.bearing);
+                        self.reverse_until = f32::NEG_INFINITY;
+                        self.blocked_since = None;
+                        self.set_state(State::Circle, r);
+                        continue;
+                    }
+                    let st = if target.is_some() {
+                        State::Approach
+                    } else {
+                        State::Search
+                    };
+                    self.set_state(st, r);
+                    if self.stuck(r, self.p.stuck_s) {
+                        self.escape(r, rng);
+                        continue;
+                    }
+                    break self.approach(r, rng, target, other);
+                }
+                State::Circle => {
+                    let Some(s) = surface else {
+                        self.set_state(State::Search, r);
+                        continue;
+                    };
+                    if self.p.perception == Perception::Beacon {
+                        if let Some((_, d)) = self.centre_bearing(r) {
+                            if d > self.p.object_reach {
+                                self.set_state(State::Approach, r);
+                                continue;
+                            }
+                        }
+                    } else if s.gap > 2.0 * self.p.contact_gap + 0.1 {
+                        self.set_state(State::Approach, r);
+                        continue;
+                    }
+                    if hidden {
+                        self.set_state(State::Push, r);
+                        continue;
+                    }
+                    // Something other than the object ahead: go round it; if it may be a wall
+                    // and stays, go the other way round the object.
+                    let ahead =
+                        |v: Vec2| v.length() > self.p.avoid_threshold && v.x > 0.3 * v.length();
+                    let blocked_ahead = ahead(other);
+                    let reversed = now < self.reverse_until;
+                    if ahead(wall) {
+                        let since = *self.blocked_since.get_or_insert(now);
+                        if now - since >= self.block_s() {
+                            // Blocked: turn back (or back to the first way round).
+                            self.reverse_until = if reversed {
+                                f32::NEG_INFINITY
+                            } else {
+                                now + self.p.reverse_s
+                            };
+                            self.blocked_since = None;
+                        }
+                    } else {
+                        self.blocked_since = None;
+                    }
+                    if self.stuck(r, self.p.stuck_s) {
+                        self.escape(r, rng);
+                        continue;
+                    }
+                    let side = if now < self.reverse_until {
+                        -self.side
+                    } else {
+                        self.side
+                    };
+                    // Object on the left (side +1): its bearing should be +90 degrees.
+                    let err = wrap_angle(s.bearing - side * FRAC_PI_2);
+                    let gap_err = (s.gap - self.p.circle_gap).clamp(-0.1, 0.1);
+                    let mut turn = self.p.turn_gain * err + side * self.p.gap_gain * gap_err;
+                    let mut fwd = self.p.circle_speed * (1.0 - err.abs() / PI).max(0.2);
+                    if blocked_ahead {
+                        // Go round a neighbour on the outside.
+                        turn -= side * self.p.max_turn * 0.5;
+                        fwd *= 0.3;
+                    }
+                    break self.twist(fwd, turn);
+                }
+                State::Push => {
+                    let Some(s) = surface else {
+                        self.set_state(State::Search, r);
+                        continue;
+                    };
+                    if visible {
+                        self.set_state(State::Circle, r);
+                        continue;
+                    }
+                    if s.gap > 2.0 * self.p.contact_gap + 0.05 {
+                        self.set_state(State::Approach, r);
+                        continue;
+                    }
+                    if self.stuck(r, self.p.push_stuck_s) {
+                        self.escape(r, rng);
+                        continue;
+                    }
+                    let bias = self.p.push_goal_bias_deg.to_radians();
+                    let err = match self.goal_direction(r) {
+                        Some(g) if bias > 0.0 => {
+                            let to_goal = wrap_angle(g - r.pose.theta - s.bearing);
+                            wrap_angle(s.bearing + to_goal.clamp(-bias, bias))
+                        }
+                        _ => s.bearing,
+                    };
+                    let fwd = if err.abs() < self.p.push_align {
+                        self.p.push_speed
+                    } else {
+                        0.0
+                    };
+                    break self.twist(fwd, self.p.turn_gain * err);
+                }
+                State::Escape => {
+                    let t = now - self.since_s;
+                    if t >= self.p.escape_s {
+                        self.set_state(State::Approach, r);
+                        continue;
+                    }
+                    if t < self.p.escape_s * 0.5 {
+                        break self.twist(-self.p.approach_speed, 0.0);
+                    }
+                    break self.twist(0.0, self.escape_turn * self.p.max_turn * 0.5);
+                }
+            }
+        };
+        self.last_s = now;
+        let led = match self.state {
+            State::Push => Color::Red,
+            State::Circle => Color::Blue,
+            State::Escape => Color::Yellow,
+            State::Search | State::Approach => Color::White,
+        };
+        act.with_led(led)
+    }
+
+    fn state(&self) -> &'static str {
+        match self.state {
+            State::Search => "search",
+            State::Approach => "approach",
+            State::Circle => "circle",
+            State::Push => "push",
+            State::Escape => "escape",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::RobotModel;
+
+    #[test]
+    fn light_bearing_inverts_the_spread_law() {
+        for model in [
+            RobotModel::khepera4(),
+            RobotModel::footbot(),
+            RobotModel::epuck(),
+        ] {
+            for k in -36..36 {
+                let b = k as f32 * 5.0_f32.to_radians() + 0.01;
+                let mut out = vec![0.0; model.light_angles.len()];
+                model.spread_light(wrap_angle(b), 0.6, &mut out);
+                let got = light_bearing(&out, &model.light_angles).unwrap_or(f32::NAN);
+                assert!(
+                    wrap_angle(got - b).abs() < 0.01,
+                    "{:?}: light at {b}, estimated {got}",
+                    model.kind
+                );
+            }
+        }
+    }
+}

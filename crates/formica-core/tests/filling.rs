@@ -1,0 +1,175 @@
+//! The `filling` controller's stop rule and the attachment it leads to.
+
+mod common;
+
+use common::{scenario, start};
+use formica::experiment::Run;
+
+/// The seed's U (opening toward -x), static, 0.3 m tall, with the beacon light above it.
+const U: &str = r#"
+[[lights]]
+at = [-0.8, 0.0]
+height = 0.9
+intensity = 10.0
+goal = false
+
+[[objects]]
+name = "U"
+movable = false
+height = 0.3
+parts = [
+  { box = [0.5, 0.2], at = [-1.0, 0.4] },
+  { box = [0.5, 0.2], at = [-1.0, -0.4] },
+  { box = [0.2, 1.0], at = [-0.75, 0.0] },
+]
+"#;
+
+/// A static 0.6 m square box at the origin, 0.3 m tall, with the beacon light above it.
+const BOX: &str = r#"
+[[lights]]
+at = [0.0, 0.0]
+height = 0.9
+intensity = 10.0
+goal = false
+
+[[objects]]
+name = "box"
+movable = false
+height = 0.3
+shape = { box = [0.6, 0.6] }
+"#;
+
+fn filling_robots(poses: &[[f32; 3]], params: &str) -> String {
+    let list: Vec<String> = poses
+        .iter()
+        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
+        .collect();
+    format!(
+        "[[robots]]\ncontroller = \"filling\"\nparams = {{ {params} }}\nplacement = {{ poses = [{}] }}\n",
+        list.join(", ")
+    )
+}
+
+/// Red, still, unattached robots: moving neighbours as the camera sees them.
+fn red_neighbours(poses: &[[f32; 3]]) -> String {
+    let list: Vec<String> = poses
+        .iter()
+        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
+        .collect();
+    format!(
+        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.0, right = 0.0, led = \"red\" }}\nplacement = {{ poses = [{}] }}\n",
+        list.join(", ")
+    )
+}
+
+fn run_for(run: &mut Run, seconds: f64) {
+    while run.world.time_s < seconds && run.step().is_none() {}
+}
+
+#[test]
+fn a_robot_in_a_cavity_corner_stops_and_attaches() {
+    // Inner corner of the U at (-0.85, 0.3); the robot starts 3 cm off both walls, facing
+    // the base wall.
+    let body = format!("{U}{}", filling_robots(&[[-0.95, 0.2, 20.0]], ""));
+    let sc = scenario(&body);
+    let mut run = start(&sc, 1);
+    run_for(&mut run, 30.0);
+    let r = &run.world.robots[0];
+    assert!(r.attached.is_some(), "state {}", r.state);
+    assert_eq!(r.state, "stopped");
+    assert_eq!(r.led, formica::scenario::Color::Blue);
+}
+
+#[test]
+fn a_robot_beside_a_flat_wall_does_not_stop() {
+    // Beside the box's east face, then free to follow its (convex) outline for two minutes.
+    let body = format!("{BOX}{}", filling_robots(&[[0.38, 0.0, 90.0]], ""));
+    let sc = scenario(&body);
+    for seed in 1..=3 {
+        let mut run = start(&sc, seed);
+        run_for(&mut run, 120.0);
+        assert!(run.world.robots[0].attached.is_none(), "seed {seed}");
+    }
+}
+
+#[test]
+fn a_robot_among_neighbours_only_does_not_stop() {
+    // Boxed in by three still red robots (behind, left and right), far from the object.
+    let me = [1.5, 1.0, 0.0];
+    let others = [[1.35, 1.0, 0.0], [1.5, 1.15, 0.0], [1.5, 0.85, 0.0]];
+    let body = format!(
+        "{BOX}{}{}",
+        filling_robots(&[me], ""),
+        red_neighbours(&others)
+    );
+    let sc = scenario(&body);
+    let mut run = start(&sc, 1);
+    run_for(&mut run, 3.0);
+    // Still free after a few seconds (the box is 1.1 m away).
+    assert!(run.world.robots[0].attached.is_none());
+    assert_ne!(run.world.robots[0].state, "check");
+}
+
+#[test]
+fn neighbours_against_a_wall_fool_the_seed_rule_but_not_the_fixed_one() {
+    // A robot beside the box's flat east face, a red neighbour just ahead and one just behind:
+    // wall plus neighbours light 4 or more sensors.
+    let me = [0.375, 0.0, 90.0];
+    let others = [[0.375, 0.145, 90.0], [0.375, -0.145, 90.0]];
+    let seed_rule = "filter_neighbours = false, require_object = false";
+    let fooled = |params: &str| {
+        let body = format!(
+            "{BOX}{}{}",
+            filling_robots(&[me], params),
+            red_neighbours(&others)
+        );
+        let sc = scenario(&body);
+        let mut run = start(&sc, 1);
+        run_for(&mut run, 10.0);
+        run.world.robots[0].attached.is_some()
+    };
+    assert!(fooled(seed_rule), "the seed's rule should stop here");
+    assert!(!fooled(""), "the fixed rule should not stop here");
+}
+
+#[test]
+fn attached_robots_move_with_the_object() {
+    // A movable 0.5 m box (light, little friction); one robot attaches to its north face, two
+    // push it eastward from the west; the attached one must ride along.
+    let body = r#"
+[[objects]]
+at = [0.0, 0.0]
+shape = { box = [0.5, 0.5] }
+mass = 2.0
+height = 0.3
+floor_mu = 0.05
+
+[[robots]]
+controller = "constant"
+params = { left = 0.0, right = 0.0, attach = true, led = "blue" }
+placement = { poses = [[0.0, 0.33, 0.0]] }
+
+[[robots]]
+controller = "constant"
+params = { left = 0.1, right = 0.1 }
+placement = { poses = [[-0.33, 0.1, 0.0], [-0.33, -0.1, 0.0]] }
+"#;
+    let sc = scenario(body);
+    let mut run = start(&sc, 1);
+    run_for(&mut run, 0.5);
+    assert!(run.world.robots[0].attached.is_some(), "did not attach");
+    let obj0 = run.world.object_center(0);
+    let rob0 = run.world.robot_pose(0).position();
+    run_for(&mut run, 8.0);
+    let obj1 = run.world.object_center(0);
+    let rob1 = run.world.robot_pose(0).position();
+    let moved = (obj1 - obj0).length();
+    assert!(moved > 0.2, "box moved only {moved} m");
+    let rel0 = rob0 - obj0;
+    let rel1 = rob1 - obj1;
+    assert!(
+        (rel1 - rel0).length() < 0.01,
+        "attached robot slid by {} m",
+        (rel1 - rel0).length()
+    );
+}

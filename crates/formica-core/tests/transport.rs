@@ -1,0 +1,149 @@
+//! Occlusion-based transport (`occlusion` controller) on the shipped scenarios.
+
+use formica::experiment::{Run, RunOptions};
+use formica::{Outcome, Overrides, Scenario};
+
+fn shipped(name: &str) -> Scenario {
+    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
+    Scenario::load(path.as_ref()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn start(sc: &Scenario, seed: u64) -> Run {
+    let opts = RunOptions {
+        overrides: Overrides {
+            seed: Some(seed),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    Run::new(sc, &opts).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// What the object's distance to the goal did during a run, from the first tick a robot
+/// pushed on.
+struct Trace {
+    outcome: Outcome,
+    /// Ticks since pushing started.
+    ticks: usize,
+    /// Ticks in which the object moved (more than 0.5 mm).
+    moving: usize,
+    /// Ticks in which it moved and its distance to the goal went down.
+    closer: usize,
+}
+
+fn distance_trace(sc: &Scenario, seed: u64) -> Trace {
+    let mut run = start(sc, seed);
+    let goal = run.world.goal().unwrap_or_else(|| panic!("no goal"));
+    let mut last = run.world.object_center(0);
+    let mut pushing = false;
+    let (mut ticks, mut moving, mut closer) = (0, 0, 0);
+    let outcome = loop {
+        let outcome = run.step();
+        let now = run.world.object_center(0);
+        pushing = pushing || run.world.robots.iter().any(|r| r.state == "push");
+        if pushing {
+            ticks += 1;
+            if (now - last).length() > 5e-4 {
+                moving += 1;
+                if (now - goal).length() < (last - goal).length() {
+                    closer += 1;
+                }
+            }
+        }
+        last = now;
+        if let Some(o) = outcome {
+            break o;
+        }
+    };
+    Trace {
+        outcome,
+        ticks,
+        moving,
+        closer,
+    }
+}
+
+#[test]
+fn seed_transport_reaches_the_goal() {
+    let sc = shipped("seed-transport.toml");
+    for seed in 1..=3 {
+        let mut run = start(&sc, seed);
+        let outcome = run.run_to_end();
+        let r = run.result();
+        assert_eq!(
+            outcome,
+            Outcome::Success,
+            "seed {seed}: {outcome:?} after {} s, {:.2} m from the goal",
+            r.sim_time_s,
+            r.goal_distance_m.unwrap_or(f64::NAN)
+        );
+        assert_eq!(r.controller, "occlusion");
+    }
+}
+
+/// Chen et al.'s theorem: on a convex object, pushing where the object hides the goal moves it
+/// closer to the goal. Once pushing has started, the object moves in most ticks (it stands
+/// still while the first pushers gather), and in the large majority of the ticks it moves its
+/// distance to the goal goes down.
+#[test]
+fn convex_objects_get_closer_to_the_goal_in_most_ticks_once_pushed() {
+    for (file, seed) in [
+        ("seed-transport.toml", 1),
+        ("transport-disc.toml", 2),
+        ("transport-hexagon.toml", 3),
+        ("transport-triangle.toml", 4),
+    ] {
+        let sc = shipped(file);
+        let t = distance_trace(&sc, seed);
+        eprintln!(
+            "{file} seed {seed}: {:?}, {} ticks since pushing started, moving in {}, closer in {}",
+            t.outcome, t.ticks, t.moving, t.closer
+        );
+        assert_eq!(t.outcome, Outcome::Success, "{file} seed {seed}");
+        assert!(
+            t.moving * 2 > t.ticks,
+            "{file} seed {seed}: the object moved in only {} of {} ticks",
+            t.moving,
+            t.ticks
+        );
+        assert!(
+            t.closer as f64 >= 0.9 * t.moving as f64,
+            "{file} seed {seed}: the object got closer to the goal in only {} of the {} ticks it moved",
+            t.closer,
+            t.moving
+        );
+    }
+}
+
+#[test]
+fn camera_robots_transport_too() {
+    let text = std::fs::read_to_string(format!(
+        "{}/../../scenarios/seed-transport.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap_or_else(|e| panic!("{e}"))
+    .replace(
+        "controller = \"occlusion\"",
+        "controller = \"occlusion\"\nparams = { perception = \"camera\" }",
+    );
+    let sc = Scenario::parse(&text, "camera.toml").unwrap_or_else(|e| panic!("{e}"));
+    let mut run = start(&sc, 1);
+    assert_eq!(run.run_to_end(), Outcome::Success);
+    assert!(run.world.groups[0].needs().camera && !run.world.groups[0].needs().beacon);
+}
+
+#[test]
+fn unknown_or_bad_parameters_are_rejected() {
+    for params in [
+        "{ speed = 0.1 }",
+        "{ perception = \"sonar\" }",
+        "{ push_speed = -0.1 }",
+    ] {
+        let text = format!(
+            "[arena]\nsize = [6.0, 4.0]\n[[robots]]\ncount = 1\ncontroller = \"occlusion\"\nparams = {params}\nplacement = {{ poses = [[0.0, 0.0, 0.0]] }}\n"
+        );
+        let sc = Scenario::parse(&text, "bad.toml").unwrap_or_else(|e| panic!("{e}"));
+        let err = formica::World::new(&sc, &Overrides::default());
+        assert!(err.is_err(), "{params} was accepted");
+    }
+}
