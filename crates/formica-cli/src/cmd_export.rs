@@ -1,12 +1,114 @@
-//! `formica export` (being written; owned by its issue).
+//! `formica export DB --csv FILE`: a result store as CSV, one row per trial, for pandas and R.
 
+use crate::store::{ident, Store, HEAD, METRICS};
 use crate::CliError;
+use anyhow::Context;
+use rusqlite::types::Value as SqlValue;
+use std::io::Write;
+use std::path::PathBuf;
 
 /// Arguments of `formica export`.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Result store (SQLite) written by `formica sweep` or `formica merge`.
+    pub db: PathBuf,
+    /// CSV file to write (`-`: standard output). Columns: trial, seed, params (JSON), one
+    /// column per varied key, then every metric.
+    #[arg(long)]
+    pub csv: PathBuf,
+    /// Also write the stored object trajectories as CSV (params, seed, t, x, y, theta).
+    #[arg(long)]
+    pub trajectories: Option<PathBuf>,
+}
+
+/// Quotes a CSV field when needed.
+pub fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn cell(v: &SqlValue) -> String {
+    match v {
+        SqlValue::Null => String::new(),
+        SqlValue::Integer(i) => i.to_string(),
+        SqlValue::Real(f) => format!("{f}"),
+        SqlValue::Text(t) => csv_field(t),
+        SqlValue::Blob(_) => String::new(),
+    }
+}
+
+fn open_out(path: &PathBuf) -> Result<Box<dyn Write>, CliError> {
+    Ok(if path.as_os_str() == "-" {
+        Box::new(std::io::stdout().lock())
+    } else {
+        if let Some(d) = path.parent() {
+            if !d.as_os_str().is_empty() {
+                std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
+            }
+        }
+        Box::new(std::io::BufWriter::new(
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+        ))
+    })
+}
+
+/// The export's columns: head, varied keys, metrics.
+pub fn export_columns(store: &Store) -> Result<Vec<String>, CliError> {
+    let have = store.columns()?;
+    let mut cols: Vec<String> = vec!["trial".into(), "seed".into(), "params".into()];
+    for c in &have {
+        let fixed = HEAD.contains(&c.as_str()) || METRICS.iter().any(|(m, _)| m == c);
+        if !fixed {
+            cols.push(c.clone());
+        }
+    }
+    cols.extend(METRICS.iter().map(|(m, _)| m.to_string()));
+    Ok(cols)
+}
 
 /// Runs the command.
-pub fn main(_a: Args) -> Result<(), CliError> {
-    Err(CliError::Input("`formica export` is not available in this build yet".into()))
+pub fn main(a: Args) -> Result<(), CliError> {
+    let store = Store::open_existing(&a.db)?;
+    let cols = export_columns(&store)?;
+    let sel: Vec<String> = cols.iter().map(|c| ident(c)).collect();
+    let mut st = store
+        .conn
+        .prepare(&format!(
+            "SELECT {} FROM trials ORDER BY trial, seed",
+            sel.join(", ")
+        ))
+        .context("reading trials")?;
+    let mut out = open_out(&a.csv)?;
+    let header: Vec<String> = cols.iter().map(|c| csv_field(c)).collect();
+    writeln!(out, "{}", header.join(",")).context("writing CSV")?;
+    let mut rows = st.query([]).context("reading trials")?;
+    let mut n = 0usize;
+    while let Some(r) = rows.next().context("reading trials")? {
+        let mut line = Vec::with_capacity(cols.len());
+        for i in 0..cols.len() {
+            let v: SqlValue = r.get(i).context("reading a cell")?;
+            line.push(cell(&v));
+        }
+        writeln!(out, "{}", line.join(",")).context("writing CSV")?;
+        n += 1;
+    }
+    out.flush().context("writing CSV")?;
+    if let Some(tp) = &a.trajectories {
+        let mut out = open_out(tp)?;
+        writeln!(out, "params,seed,t,x,y,theta").context("writing CSV")?;
+        for (p, seed, samples) in store.trajectories(usize::MAX >> 1)? {
+            let pq = csv_field(&p);
+            for [t, x, y, th] in samples {
+                writeln!(out, "{pq},{seed},{t},{x},{y},{th}").context("writing CSV")?;
+            }
+        }
+        out.flush().context("writing CSV")?;
+    }
+    if a.csv.as_os_str() != "-" {
+        eprintln!("wrote {n} trials to {}", a.csv.display());
+    }
+    Ok(())
 }

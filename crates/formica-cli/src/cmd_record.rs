@@ -1,12 +1,147 @@
-//! `formica record` (being written; owned by its issue).
+//! `formica record SCENARIO --out run.gif`: render a run headless to an animated GIF.
 
 use crate::CliError;
+use anyhow::Context;
+use formica::experiment::{Run, RunOptions};
+use formica::{Overrides, Scenario};
+use formica_render::{record_gif, RecordOptions};
+use std::path::PathBuf;
 
 /// Arguments of `formica record`.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Scenario file (TOML).
+    pub scenario: PathBuf,
+    /// Output file (`.gif`).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seed (default: the file's `run.seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Simulated time limit in seconds (default: the file's `run.duration_s`).
+    #[arg(long)]
+    pub duration: Option<f32>,
+    /// Use this controller for every robot group.
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Frames per second of the animation.
+    #[arg(long, default_value_t = 10)]
+    pub fps: u32,
+    /// Simulated seconds per second of animation.
+    #[arg(long, default_value_t = 10.0)]
+    pub speed: f32,
+    /// Image width in pixels (the height follows the arena).
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    /// Shade the zone where the object hides the goal light.
+    #[arg(long)]
+    pub occlusion: bool,
+    /// Stop after this many frames even if the run goes on.
+    #[arg(long, default_value_t = 3000)]
+    pub max_frames: usize,
+}
 
 /// Runs the command.
-pub fn main(_a: Args) -> Result<(), CliError> {
-    Err(CliError::Input("`formica record` is not available in this build yet".into()))
+pub fn main(a: Args) -> Result<(), CliError> {
+    let ext = a
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("gif") => {}
+        Some("mp4") => {
+            return Err(CliError::Input(
+                "--out: MP4 is not supported (it would need a system video encoder); write a .gif"
+                    .into(),
+            ))
+        }
+        _ => {
+            return Err(CliError::Input(format!(
+                "--out: expected a file name ending in .gif, got `{}`",
+                a.out.display()
+            )))
+        }
+    }
+    if !(1..=50).contains(&a.fps) {
+        return Err(CliError::Input(format!(
+            "--fps: expected 1 to 50, got {}",
+            a.fps
+        )));
+    }
+    if !(a.speed > 0.0 && a.speed.is_finite()) {
+        return Err(CliError::Input(format!(
+            "--speed: expected a positive number, got {}",
+            a.speed
+        )));
+    }
+    if !(64..=4096).contains(&a.width) {
+        return Err(CliError::Input(format!(
+            "--width: expected 64 to 4096 pixels, got {}",
+            a.width
+        )));
+    }
+    if a.max_frames == 0 {
+        return Err(CliError::Input("--max-frames: expected at least 1".into()));
+    }
+    if let Some(d) = a.duration {
+        if !(d > 0.0 && d.is_finite()) {
+            return Err(CliError::Input(format!(
+                "--duration: expected a positive number of seconds, got {d}"
+            )));
+        }
+    }
+    if let Some(c) = &a.controller {
+        if !formica::controllers::NAMES.contains(&c.as_str()) {
+            return Err(CliError::Input(format!(
+                "--controller: unknown controller `{c}`, expected one of {}",
+                formica::controllers::NAMES.join(", ")
+            )));
+        }
+    }
+    let sc = Scenario::load(&a.scenario)?;
+    let opts = RunOptions {
+        overrides: Overrides {
+            seed: a.seed,
+            duration_s: a.duration,
+            controller: a.controller.clone(),
+        },
+        record: false,
+        robot_every: 1,
+    };
+    let mut run = Run::new(&sc, &opts)?;
+    let ticks_per_frame = (run.world.tick_hz * f64::from(a.speed) / f64::from(a.fps)).round();
+    let rec = RecordOptions {
+        width_px: a.width,
+        every_ticks: (ticks_per_frame as u64).max(1),
+        delay_cs: (100 / a.fps).max(2) as u16,
+        hold_cs: 200,
+        occlusion: a.occlusion,
+        max_frames: a.max_frames,
+    };
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let file =
+        std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let (summary, w) = record_gif(&mut run, &rec, std::io::BufWriter::new(file))
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("writing {}", a.out.display()))?;
+    w.into_inner()
+        .map_err(|e| anyhow::Error::new(e.into_error()))
+        .with_context(|| format!("writing {}", a.out.display()))?;
+    let how = summary
+        .outcome
+        .map_or("cut short by --max-frames".to_string(), |o| {
+            o.name().to_string()
+        });
+    println!(
+        "wrote {}: {} frames, {} after {:.1} s ({} ticks)",
+        a.out.display(),
+        summary.frames,
+        how,
+        summary.sim_time_s,
+        summary.ticks
+    );
+    Ok(())
 }

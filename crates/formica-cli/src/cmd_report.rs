@@ -1,12 +1,670 @@
-//! `formica report` (being written; owned by its issue).
+//! `formica report DB --out DIR`: plots (PNG and SVG) and a Markdown summary of a result store.
+//!
+//! - `success-KEY`: success rate with 95 % Wilson intervals against each varied key;
+//! - `survival`: Kaplan-Meier curves of completion time (timeouts censored at their time;
+//!   wall failures never complete);
+//! - `path-efficiency-KEY`: mean path efficiency (successful trials) with a 95 % interval;
+//! - `time-vs-robots`: censored median completion time (bars: censored quartiles) against the
+//!   number of robots;
+//! - `trajectories`: the object's paths, coloured by outcome (if the store has them);
+//! - `fill-KEY`: convexity after filling and cavity filled (if the trials report them);
+//! - `summary.md`: one table row per parameter set.
 
+use crate::plots::{self, CategoryPlot, Estimate, LinePlot};
+use crate::stats::{censored_median, wilson95};
+use crate::store::{Store, StoredTrial};
 use crate::CliError;
+use anyhow::Context;
+use formica::{Outcome, RunResult};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `formica report`.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Result store (SQLite) written by `formica sweep` or `formica merge`.
+    pub db: PathBuf,
+    /// Folder for the plots and `summary.md`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// At most this many trajectories in the overlay.
+    #[arg(long, default_value_t = 300)]
+    pub max_trajectories: usize,
+}
+
+/// A short label of a parameter value.
+fn label(key: &str, v: &serde_json::Value) -> String {
+    match v {
+        serde_json::Value::String(s) if key == "scenario" => Path::new(s)
+            .file_stem()
+            .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned()),
+        serde_json::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// File-name-safe form of a key.
+fn slug(key: &str) -> String {
+    key.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+        .collect()
+}
+
+/// Distinct values of `key` in trial order (numbers sorted numerically).
+fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    let mut numeric = true;
+    for r in rows {
+        if let Some(v) = r.params.get(key) {
+            numeric &= v.is_number();
+            let l = label(key, v);
+            if !out.contains(&l) {
+                out.push(l);
+            }
+        }
+    }
+    if numeric {
+        out.sort_by(|a, b| {
+            let (x, y) = (
+                a.parse::<f64>().unwrap_or(0.0),
+                b.parse::<f64>().unwrap_or(0.0),
+            );
+            x.total_cmp(&y)
+        });
+    }
+    out
+}
+
+fn value(r: &StoredTrial, key: &str) -> String {
+    r.params
+        .get(key)
+        .map_or_else(|| "-".into(), |v| label(key, v))
+}
+
+/// The key to split series by when plotting against `x_key`: another varied key with 2 to 6
+/// values, a controller key first, else the one with the fewest values.
+fn series_key(rows: &[StoredTrial], keys: &[String], x_key: Option<&str>) -> Option<String> {
+    let mut cands: Vec<(bool, usize, String)> = keys
+        .iter()
+        .filter(|k| Some(k.as_str()) != x_key)
+        .map(|k| {
+            (
+                !k.contains("controller"),
+                values_of(rows, k).len(),
+                k.clone(),
+            )
+        })
+        .filter(|(_, n, _)| (2..=6).contains(n))
+        .collect();
+    cands.sort();
+    cands.into_iter().next().map(|(_, _, k)| k)
+}
+
+/// Completion-time quantile with failures at +infinity.
+fn censored_quantile(rs: &[&RunResult], q: f64) -> f64 {
+    let mut t: Vec<f64> = rs
+        .iter()
+        .filter(|r| r.outcome == Outcome::Success)
+        .map(|r| r.sim_time_s)
+        .collect();
+    t.sort_by(f64::total_cmp);
+    let n = rs.len();
+    if n == 0 {
+        return f64::INFINITY;
+    }
+    let i = ((q * n as f64).ceil() as usize).max(1) - 1;
+    t.get(i).copied().unwrap_or(f64::INFINITY)
+}
+
+/// Kaplan-Meier estimate of P(not yet at the goal at t): successes are events, timeouts are
+/// censored at their time, wall failures never complete (censored at +infinity).
+pub fn kaplan_meier(rs: &[&RunResult]) -> Vec<(f64, f64)> {
+    let mut times: Vec<(f64, bool)> = rs
+        .iter()
+        .map(|r| match r.outcome {
+            Outcome::Success => (r.sim_time_s, true),
+            Outcome::Timeout => (r.sim_time_s, false),
+            Outcome::Wall => (f64::INFINITY, false),
+        })
+        .collect();
+    times.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+    let mut at_risk = times.len();
+    let mut s = 1.0;
+    let mut out = vec![(0.0, 1.0)];
+    let mut i = 0;
+    let mut last_t = 0.0f64;
+    while i < times.len() {
+        let t = times[i].0;
+        let (mut d, mut c) = (0usize, 0usize);
+        while i < times.len() && times[i].0 == t {
+            if times[i].1 {
+                d += 1;
+            } else {
+                c += 1;
+            }
+            i += 1;
+        }
+        if d > 0 && at_risk > 0 {
+            s *= 1.0 - d as f64 / at_risk as f64;
+            out.push((t, s));
+        }
+        if t.is_finite() {
+            last_t = last_t.max(t);
+        }
+        at_risk -= d + c;
+    }
+    // Extend to the last finite time seen (censored timeouts included).
+    if out.last().is_some_and(|p| p.0 < last_t) {
+        out.push((last_t, s));
+    }
+    out
+}
+
+fn mean_ci(xs: &[f64]) -> Option<Estimate> {
+    if xs.is_empty() {
+        return None;
+    }
+    let n = xs.len() as f64;
+    let m = xs.iter().sum::<f64>() / n;
+    let sd = if xs.len() > 1 {
+        (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    let h = 1.96 * sd / n.sqrt();
+    Some(Estimate {
+        y: m,
+        lo: m - h,
+        hi: m + h,
+    })
+}
+
+fn fmt_opt(x: Option<f64>, digits: usize) -> String {
+    x.map_or_else(|| "–".into(), |v| format!("{v:.digits$}"))
+}
+
+/// Groups rows by (x value, series value).
+fn grouped(
+    rows: &[StoredTrial],
+    x: impl Fn(&StoredTrial) -> String,
+    s: impl Fn(&StoredTrial) -> String,
+) -> BTreeMap<(String, String), Vec<&RunResult>> {
+    let mut g: BTreeMap<(String, String), Vec<&RunResult>> = BTreeMap::new();
+    for r in rows {
+        g.entry((x(r), s(r))).or_default().push(&r.result);
+    }
+    g
+}
+
+/// One category plot per metric estimator, against `x_key` values, split by `s_key`.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one call per figure, each argument named at the call"
+)]
+fn category_plot(
+    rows: &[StoredTrial],
+    x_key: &str,
+    x_cats: Vec<String>,
+    x_of: &dyn Fn(&StoredTrial) -> String,
+    s_key: Option<&str>,
+    est: &dyn Fn(&[&RunResult]) -> Option<Estimate>,
+    title: String,
+    y_desc: &str,
+    y_range: Option<(f64, f64)>,
+) -> CategoryPlot {
+    let s_vals = s_key.map_or_else(|| vec![String::new()], |k| values_of(rows, k));
+    let g = grouped(rows, x_of, |r| {
+        s_key.map_or_else(String::new, |k| value(r, k))
+    });
+    let series = s_vals
+        .iter()
+        .map(|sv| {
+            let name = s_key.map_or_else(String::new, |k| format!("{k} = {sv}"));
+            let ests = x_cats
+                .iter()
+                .map(|xv| g.get(&(xv.clone(), sv.clone())).and_then(|rs| est(rs)))
+                .collect();
+            (name, ests)
+        })
+        .collect();
+    let connect = x_cats.iter().all(|c| c.parse::<f64>().is_ok());
+    CategoryPlot {
+        connect,
+        title,
+        x_desc: x_key.to_string(),
+        y_desc: y_desc.to_string(),
+        categories: x_cats,
+        series,
+        y_range,
+    }
+}
 
 /// Runs the command.
-pub fn main(_a: Args) -> Result<(), CliError> {
-    Err(CliError::Input("`formica report` is not available in this build yet".into()))
+pub fn main(a: Args) -> Result<(), CliError> {
+    let store = Store::open_existing(&a.db)?;
+    let rows = store.results()?;
+    if rows.is_empty() {
+        return Err(CliError::Input(format!(
+            "{}: the store holds no trials yet",
+            a.db.display()
+        )));
+    }
+    let name = store.meta("name")?.unwrap_or_else(|| "sweep".into());
+    let keys: Vec<String> = store
+        .keys()?
+        .into_iter()
+        .filter(|k| rows.iter().any(|r| r.params.contains_key(k)))
+        .collect();
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    plots::init_font()?;
+    let dir = a.out.as_path();
+    let mut figures: Vec<(String, String)> = Vec::new();
+    let any_success = rows.iter().any(|r| r.result.outcome == Outcome::Success);
+
+    let success = |rs: &[&RunResult]| {
+        let k = rs.iter().filter(|r| r.outcome == Outcome::Success).count();
+        let [lo, hi] = wilson95(k, rs.len());
+        Some(Estimate {
+            y: k as f64 / rs.len().max(1) as f64,
+            lo,
+            hi,
+        })
+    };
+    let efficiency = |rs: &[&RunResult]| {
+        let xs: Vec<f64> = rs
+            .iter()
+            .filter(|r| {
+                if any_success {
+                    r.outcome == Outcome::Success
+                } else {
+                    r.object_path_m > 0.01
+                }
+            })
+            .map(|r| r.path_efficiency)
+            .collect();
+        mean_ci(&xs)
+    };
+    let eff_desc = if any_success {
+        "path efficiency (successful trials)"
+    } else {
+        "path efficiency (trials that moved the object)"
+    };
+    // With case labels, keys that the label decides get no figures of their own.
+    let decided_by_label = |k: &str| {
+        k != "label"
+            && keys.iter().any(|l| l == "label")
+            && rows.iter().all(|a| {
+                rows.iter()
+                    .filter(|b| value(b, "label") == value(a, "label"))
+                    .all(|b| value(b, k) == value(a, k))
+            })
+    };
+    let plotted: Vec<String> = keys
+        .iter()
+        .filter(|k| !decided_by_label(k))
+        .cloned()
+        .collect();
+    let x_keys: Vec<Option<String>> = if plotted.is_empty() {
+        vec![None]
+    } else {
+        plotted.iter().cloned().map(Some).collect()
+    };
+    let moved = rows.iter().any(|r| r.result.object_path_m > 0.01);
+    for xk in &x_keys {
+        let (x_name, cats, stem): (String, Vec<String>, String) = match xk {
+            Some(k) => (k.clone(), values_of(&rows, k), slug(k)),
+            None => ("all trials".into(), vec!["all".into()], "all".into()),
+        };
+        let x_of = |r: &StoredTrial| xk.as_ref().map_or_else(|| "all".into(), |k| value(r, k));
+        let s_key = series_key(&rows, &plotted, xk.as_deref());
+        let p = category_plot(
+            &rows,
+            &x_name,
+            cats.clone(),
+            &x_of,
+            s_key.as_deref(),
+            &success,
+            format!("{name}: success rate (95 % Wilson)"),
+            "success rate",
+            Some((0.0, 1.0)),
+        );
+        let f = format!("success-{stem}");
+        plots::save_category(dir, &f, &p)?;
+        figures.push((f, format!("Success rate against {x_name}")));
+        if moved {
+            let p = category_plot(
+                &rows,
+                &x_name,
+                cats.clone(),
+                &x_of,
+                s_key.as_deref(),
+                &efficiency,
+                format!("{name}: path efficiency (mean, 95 % CI)"),
+                eff_desc,
+                Some((0.0, 1.05)),
+            );
+            let f = format!("path-efficiency-{stem}");
+            plots::save_category(dir, &f, &p)?;
+            figures.push((f, format!("Path efficiency against {x_name}")));
+        }
+        if rows.iter().any(|r| r.result.convexity_after.is_some()) {
+            let g = grouped(&rows, x_of, |_| String::new());
+            let metric = |f: fn(&RunResult) -> Option<f64>| {
+                cats.iter()
+                    .map(|c| {
+                        g.get(&(c.clone(), String::new())).and_then(|rs| {
+                            let xs: Vec<f64> = rs.iter().filter_map(|r| f(r)).collect();
+                            mean_ci(&xs)
+                        })
+                    })
+                    .collect::<Vec<_>>()
+            };
+            let p = CategoryPlot {
+                connect: cats.iter().all(|c| c.parse::<f64>().is_ok()),
+                title: format!("{name}: filling (mean, 95 % CI)"),
+                x_desc: x_name.clone(),
+                y_desc: "fraction".into(),
+                categories: cats.clone(),
+                series: vec![
+                    ("convexity before".into(), metric(|r| r.convexity_before)),
+                    ("convexity after".into(), metric(|r| r.convexity_after)),
+                    ("cavity filled".into(), metric(|r| r.cavity_filled)),
+                ],
+                y_range: Some((0.0, 1.05)),
+            };
+            let f = format!("fill-{stem}");
+            plots::save_category(dir, &f, &p)?;
+            figures.push((f, format!("Filling metrics against {x_name}")));
+        }
+    }
+
+    // Survival curves: per parameter set if few, else per value of the series key.
+    let sets: Vec<String> = {
+        let mut v: Vec<String> = Vec::new();
+        for r in &rows {
+            if !v.contains(&r.params_json) {
+                v.push(r.params_json.clone());
+            }
+        }
+        v
+    };
+    let set_label = |r: &StoredTrial| {
+        if keys.is_empty() {
+            "all trials".to_string()
+        } else {
+            keys.iter()
+                .filter(|k| r.params.contains_key(*k))
+                .map(|k| format!("{k}={}", value(r, k)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    };
+    let (groups, by): (Vec<(String, Vec<&RunResult>)>, String) = if sets.len() <= 8 {
+        let mut g: Vec<(String, Vec<&RunResult>)> = Vec::new();
+        for s in &sets {
+            let rs: Vec<&StoredTrial> = rows.iter().filter(|r| &r.params_json == s).collect();
+            g.push((set_label(rs[0]), rs.iter().map(|r| &r.result).collect()));
+        }
+        (g, "parameter set".into())
+    } else {
+        let k = series_key(&rows, &keys, None).or_else(|| keys.first().cloned());
+        match k {
+            Some(k) => {
+                let vals = values_of(&rows, &k);
+                let g = vals
+                    .iter()
+                    .take(10)
+                    .map(|v| {
+                        (
+                            format!("{k} = {v}"),
+                            rows.iter()
+                                .filter(|r| &value(r, &k) == v)
+                                .map(|r| &r.result)
+                                .collect(),
+                        )
+                    })
+                    .collect();
+                (g, k)
+            }
+            None => (
+                vec![(
+                    "all trials".into(),
+                    rows.iter().map(|r| &r.result).collect(),
+                )],
+                "all".into(),
+            ),
+        }
+    };
+    let p = LinePlot {
+        title: format!("{name}: completion time (Kaplan-Meier, timeouts censored)"),
+        x_desc: "simulated time (s)".into(),
+        y_desc: "fraction not yet at the goal".into(),
+        curves: groups
+            .iter()
+            .map(|(l, rs)| (l.clone(), kaplan_meier(rs)))
+            .collect(),
+        steps: true,
+        y_range: Some((0.0, 1.02)),
+        equal_axes: false,
+        legend: true,
+        colors: Vec::new(),
+    };
+    plots::save_lines(dir, "survival", &p)?;
+    figures.push((
+        "survival".into(),
+        format!("Completion-time survival curves, by {by}"),
+    ));
+
+    // Time against swarm size.
+    let mut sizes: Vec<usize> = rows.iter().map(|r| r.result.robots).collect();
+    sizes.sort_unstable();
+    sizes.dedup();
+    if sizes.len() > 1 && any_success {
+        let count_key = keys.iter().find(|k| k.ends_with("count")).cloned();
+        let others: Vec<String> = keys
+            .iter()
+            .filter(|k| Some(*k) != count_key.as_ref())
+            .cloned()
+            .collect();
+        let s_key = series_key(&rows, &others, None);
+        let cats: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
+        let p = category_plot(
+            &rows,
+            "robots",
+            cats,
+            &|r: &StoredTrial| r.result.robots.to_string(),
+            s_key.as_deref(),
+            &|rs: &[&RunResult]| {
+                let owned: Vec<RunResult> = rs.iter().map(|r| (*r).clone()).collect();
+                censored_median(&owned).map(|m| Estimate {
+                    y: m,
+                    lo: censored_quantile(rs, 0.25),
+                    hi: censored_quantile(rs, 0.75),
+                })
+            },
+            format!("{name}: completion time against swarm size"),
+            "median completion time (s; bars: quartiles)",
+            None,
+        );
+        plots::save_category(dir, "time-vs-robots", &p)?;
+        figures.push((
+            "time-vs-robots".into(),
+            "Completion time against swarm size (failures censored)".into(),
+        ));
+    }
+
+    // Trajectories.
+    let trajs = store.trajectories(a.max_trajectories)?;
+    if !trajs.is_empty() {
+        let outcome: BTreeMap<(String, u64), Outcome> = rows
+            .iter()
+            .map(|r| ((r.params_json.clone(), r.result.seed), r.result.outcome))
+            .collect();
+        let mut seen = [false; 3];
+        let mut curves = Vec::new();
+        let mut colors = Vec::new();
+        for (p, seed, samples) in &trajs {
+            let o = outcome
+                .get(&(p.clone(), *seed))
+                .copied()
+                .unwrap_or(Outcome::Timeout);
+            let ci = match o {
+                Outcome::Success => 2,
+                Outcome::Wall => 3,
+                Outcome::Timeout => 7,
+            };
+            let slot = match o {
+                Outcome::Success => 0,
+                Outcome::Wall => 1,
+                Outcome::Timeout => 2,
+            };
+            let name = if seen[slot] {
+                String::new()
+            } else {
+                seen[slot] = true;
+                o.name().to_string()
+            };
+            curves.push((name, samples.iter().map(|s| (s[1], s[2])).collect()));
+            colors.push(ci);
+        }
+        let p = LinePlot {
+            title: format!("{name}: object trajectories ({} trials)", trajs.len()),
+            x_desc: "x (m)".into(),
+            y_desc: "y (m)".into(),
+            curves,
+            steps: false,
+            y_range: None,
+            equal_axes: true,
+            legend: true,
+            colors,
+        };
+        plots::save_lines(dir, "trajectories", &p)?;
+        figures.push(("trajectories".into(), "Object trajectories".into()));
+    }
+
+    // summary.md
+    let mut md = String::new();
+    let n = rows.len();
+    let k = rows
+        .iter()
+        .filter(|r| r.result.outcome == Outcome::Success)
+        .count();
+    let [lo, hi] = wilson95(k, n);
+    let _ = writeln!(md, "# {name}\n");
+    let _ = writeln!(
+        md,
+        "{n} trials in `{}`, {} parameter set(s); {k} successes ({:.1} %, 95 % Wilson CI {:.1}–{:.1} %).\n",
+        a.db.display(),
+        sets.len(),
+        100.0 * k as f64 / n as f64,
+        100.0 * lo,
+        100.0 * hi
+    );
+    let fill = rows.iter().any(|r| r.result.convexity_after.is_some());
+    let mut head: Vec<String> = keys.iter().map(|k| format!("`{k}`")).collect();
+    head.extend(
+        [
+            "trials",
+            "success",
+            "rate (95 % CI)",
+            "wall",
+            "timeout",
+            "median time (s)",
+            "path efficiency",
+        ]
+        .iter()
+        .map(|s| s.to_string()),
+    );
+    if fill {
+        head.extend(
+            ["robots attached", "convexity after", "cavity filled"]
+                .iter()
+                .map(|s| s.to_string()),
+        );
+    }
+    let _ = writeln!(md, "| {} |", head.join(" | "));
+    let _ = writeln!(md, "|{}", "---|".repeat(head.len()));
+    for s in &sets {
+        let rs: Vec<&StoredTrial> = rows.iter().filter(|r| &r.params_json == s).collect();
+        let res: Vec<RunResult> = rs.iter().map(|r| r.result.clone()).collect();
+        let refs: Vec<&RunResult> = res.iter().collect();
+        let count = |o: Outcome| res.iter().filter(|r| r.outcome == o).count();
+        let ok = count(Outcome::Success);
+        let [lo, hi] = wilson95(ok, res.len());
+        let mut cells: Vec<String> = keys.iter().map(|k| value(rs[0], k)).collect();
+        let mean = |f: &dyn Fn(&RunResult) -> Option<f64>| {
+            let xs: Vec<f64> = res.iter().filter_map(f).collect();
+            (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
+        };
+        cells.push(res.len().to_string());
+        cells.push(ok.to_string());
+        cells.push(format!(
+            "{:.0} % ({:.0}–{:.0} %)",
+            100.0 * ok as f64 / res.len() as f64,
+            100.0 * lo,
+            100.0 * hi
+        ));
+        cells.push(count(Outcome::Wall).to_string());
+        cells.push(count(Outcome::Timeout).to_string());
+        cells.push(fmt_opt(censored_median(&res), 1));
+        cells.push(fmt_opt(efficiency(&refs).map(|e| e.y), 3));
+        if fill {
+            cells.push(fmt_opt(mean(&|r| r.object_robots.map(|n| n as f64)), 1));
+            cells.push(fmt_opt(mean(&|r| r.convexity_after), 3));
+            cells.push(fmt_opt(mean(&|r| r.cavity_filled), 3));
+        }
+        let cells: Vec<String> = cells.iter().map(|c| c.replace('|', "\\|")).collect();
+        let _ = writeln!(md, "| {} |", cells.join(" | "));
+    }
+    let _ = writeln!(
+        md,
+        "\nMedian time: completion time by which half of the trials had succeeded (failures censored; – if fewer than half did). Path efficiency: {eff_desc}, mean.\n"
+    );
+    let _ = writeln!(md, "## Figures\n");
+    for (f, title) in &figures {
+        let _ = writeln!(md, "### {title}\n\n![{title}]({f}.png) ([SVG]({f}.svg))\n");
+    }
+    std::fs::write(dir.join("summary.md"), md).context("writing summary.md")?;
+    println!(
+        "wrote {} figures (PNG and SVG) and summary.md to {}",
+        figures.len(),
+        dir.display()
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn r(outcome: Outcome, t: f64) -> RunResult {
+        RunResult {
+            scenario: "x".into(),
+            seed: 1,
+            outcome,
+            sim_time_s: t,
+            ticks: 0,
+            robots: 1,
+            controller: "c".into(),
+            ..RunResult::default()
+        }
+    }
+
+    #[test]
+    fn kaplan_meier_censors_timeouts() {
+        let rs = [
+            r(Outcome::Success, 10.0),
+            r(Outcome::Success, 20.0),
+            r(Outcome::Timeout, 15.0),
+            r(Outcome::Timeout, 30.0),
+        ];
+        let refs: Vec<&RunResult> = rs.iter().collect();
+        let km = kaplan_meier(&refs);
+        // 4 at risk at 10 -> 0.75; 2 at risk at 20 (one censored at 15) -> 0.375.
+        assert_eq!(km[0], (0.0, 1.0));
+        assert!((km[1].1 - 0.75).abs() < 1e-12);
+        assert!((km[2].1 - 0.375).abs() < 1e-12);
+        assert_eq!(km.last().map(|p| p.0), Some(30.0));
+    }
 }

@@ -35,20 +35,18 @@ pub struct Args {
     pub threads: Option<usize>,
 }
 
-/// Parses `A..B` (inclusive).
+/// Parses a seed range `A..B` (inclusive; `A..=B` also accepted).
+pub fn seed_range(s: &str) -> Option<std::ops::RangeInclusive<u64>> {
+    let (a, b) = s.split_once("..")?;
+    let a: u64 = a.trim().parse().ok()?;
+    let b: u64 = b.trim().trim_start_matches('=').parse().ok()?;
+    (a <= b).then_some(a..=b)
+}
+
+/// Parses `--seeds A..B`.
 pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
-    let bad = || CliError::Input(format!("--seeds: expected A..B with A <= B, got `{s}`"));
-    let (a, b) = s.split_once("..").ok_or_else(bad)?;
-    let a: u64 = a.trim().parse().map_err(|_| bad())?;
-    let b: u64 = b
-        .trim()
-        .trim_start_matches('=')
-        .parse()
-        .map_err(|_| bad())?;
-    if a > b {
-        return Err(bad());
-    }
-    Ok(a..=b)
+    seed_range(s)
+        .ok_or_else(|| CliError::Input(format!("--seeds: expected A..B with A <= B, got `{s}`")))
 }
 
 fn overrides(a: &Args, seed: Option<u64>) -> Overrides {

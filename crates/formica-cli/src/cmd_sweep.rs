@@ -1,12 +1,230 @@
-//! `formica sweep` (being written; owned by its issue).
+//! `formica sweep SWEEP.toml`: run a parameter grid in parallel into a SQLite result store.
+//! Resumable: trials already stored are skipped.
 
-use crate::CliError;
+use crate::store::{Row, Store};
+use crate::sweep::{parse_shard, Sweep, Trial};
+use crate::{stats, CliError};
+use anyhow::Context;
+use formica::experiment::{Run, RunOptions};
+use formica::{Outcome, Overrides};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use std::path::PathBuf;
+use std::sync::mpsc;
 
 /// Arguments of `formica sweep`.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Sweep file (TOML): base scenario, `[vary]` keys, seeds.
+    pub sweep: PathBuf,
+    /// Result store (SQLite; default: the sweep file with `.db` instead of `.toml`).
+    #[arg(long)]
+    pub db: Option<PathBuf>,
+    /// Run only every N-th trial of the grid, starting at K (0-based), e.g. `--shard 2/8`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Also store each trial's object trajectory (as the sweep's `trajectories = true`).
+    #[arg(long)]
+    pub trajectories: bool,
+    /// Run at most this many of the missing trials, then stop (for testing and benchmarks).
+    #[arg(long)]
+    pub limit: Option<usize>,
+    /// Print the trials that would run, and run none.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The default store of a sweep file.
+pub fn default_db(sweep: &std::path::Path) -> PathBuf {
+    sweep.with_extension("db")
+}
+
+/// Object samples every this many simulated seconds go to the store.
+const TRAJECTORY_EVERY_S: f64 = 1.0;
+
+fn run_trial(sweep: &Sweep, t: Trial, record: bool) -> Result<Row, formica::ScenarioError> {
+    let set = &sweep.sets[t.set];
+    let opts = RunOptions {
+        overrides: Overrides {
+            seed: Some(t.seed),
+            ..Default::default()
+        },
+        record,
+        robot_every: u64::MAX,
+    };
+    let mut run = Run::new(&set.scenario, &opts)?;
+    run.run_to_end();
+    let result = run.result();
+    let trajectory = run.trajectories().map(|tr| {
+        let mut out: Vec<[f64; 4]> = Vec::new();
+        let mut next = 0.0;
+        let n = tr.object.len();
+        for (i, s) in tr.object.iter().enumerate() {
+            if s.t + 1e-9 >= next || i + 1 == n {
+                out.push([s.t, f64::from(s.x), f64::from(s.y), f64::from(s.theta)]);
+                next = s.t + TRAJECTORY_EVERY_S;
+            }
+        }
+        out
+    });
+    Ok(Row {
+        trial: t.index,
+        params: set.key.clone(),
+        values: sweep
+            .keys
+            .iter()
+            .filter_map(|k| set.params.get(k).map(|v| (k.clone(), v.clone())))
+            .collect(),
+        result,
+        trajectory,
+    })
+}
 
 /// Runs the command.
-pub fn main(_a: Args) -> Result<(), CliError> {
-    Err(CliError::Input("`formica sweep` is not available in this build yet".into()))
+pub fn main(a: Args) -> Result<(), CliError> {
+    let sweep = Sweep::load(&a.sweep)?;
+    let shard = a.shard.as_deref().map(parse_shard).transpose()?;
+    let db = a.db.clone().unwrap_or_else(|| default_db(&a.sweep));
+    let record = a.trajectories || sweep.trajectories;
+    let all = sweep.trials();
+    let mine: Vec<Trial> = match shard {
+        Some((k, n)) => all.iter().copied().filter(|t| t.index % n == k).collect(),
+        None => all.clone(),
+    };
+    if a.dry_run {
+        for t in &mine {
+            println!(
+                "trial {} seed {} {}",
+                t.index, t.seed, sweep.sets[t.set].key
+            );
+        }
+        println!(
+            "{}: {} parameter sets x {} seeds = {} trials, {} in this shard",
+            sweep.name,
+            sweep.sets.len(),
+            sweep.seeds.len(),
+            all.len(),
+            mine.len()
+        );
+        return Ok(());
+    }
+    // Check every parameter set builds before fanning out, so errors are reported once.
+    for set in &sweep.sets {
+        Run::new(
+            &set.scenario,
+            &RunOptions {
+                overrides: Overrides {
+                    seed: sweep.seeds.first().copied(),
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        )
+        .map_err(|e| CliError::Input(format!("{} (parameter set {})", e, set.key)))?;
+    }
+    let mut store = Store::open(&db)?;
+    store.bind(&sweep, &db)?;
+    let done = store.done()?;
+    if !done.is_empty() {
+        let index: Vec<(&str, u64, usize)> = all
+            .iter()
+            .filter(|t| done.contains(&(sweep.sets[t.set].key.clone(), t.seed)))
+            .map(|t| (sweep.sets[t.set].key.as_str(), t.seed, t.index))
+            .collect();
+        store.reindex(&index)?;
+    }
+    let mut todo: Vec<Trial> = mine
+        .iter()
+        .copied()
+        .filter(|t| !done.contains(&(sweep.sets[t.set].key.clone(), t.seed)))
+        .collect();
+    let skipped = mine.len() - todo.len();
+    if let Some(l) = a.limit {
+        todo.truncate(l);
+    }
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(todo.len() as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:30}] {pos}/{len} trials, ETA {eta} {msg}",
+        )
+        .context("progress bar template")?
+        .progress_chars("=> "),
+    );
+    if skipped > 0 && !a.quiet {
+        eprintln!(
+            "{}: {skipped} of {} trials already in {}, running the other {}",
+            sweep.name,
+            mine.len(),
+            db.display(),
+            todo.len()
+        );
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")?;
+    let (tx, rx) = mpsc::channel::<Row>();
+    // The single writer: one transaction per finished trial.
+    let writer_bar = bar.clone();
+    let writer = std::thread::spawn(move || -> Result<(usize, usize), CliError> {
+        let (mut n, mut ok) = (0usize, 0usize);
+        for row in rx {
+            store.insert(&row)?;
+            n += 1;
+            if row.result.outcome == Outcome::Success {
+                ok += 1;
+            }
+            writer_bar.inc(1);
+            writer_bar.set_message(format!("success {:.0} %", 100.0 * ok as f64 / n as f64));
+        }
+        Ok((n, ok))
+    });
+    let failures: Vec<String> = pool.install(|| {
+        todo.par_iter()
+            .with_max_len(1)
+            .filter_map(|&t| match run_trial(&sweep, t, record) {
+                Ok(row) => tx
+                    .send(row)
+                    .err()
+                    .map(|_| "the result writer stopped".to_string()),
+                Err(e) => Some(format!("trial {} (seed {}): {e}", t.index, t.seed)),
+            })
+            .collect()
+    });
+    drop(tx);
+    let written = writer
+        .join()
+        .map_err(|_| CliError::Other(anyhow::anyhow!("the result writer panicked")))?;
+    let (n, ok) = written?;
+    bar.finish_and_clear();
+    if let Some(f) = failures.first() {
+        return Err(CliError::Other(anyhow::anyhow!(
+            "{} trial(s) failed; first: {f}",
+            failures.len()
+        )));
+    }
+    let store = Store::open(&db)?;
+    let total = store.count()?;
+    let [lo, hi] = stats::wilson95(ok, n);
+    println!(
+        "{}: ran {n} trials ({} successes, {:.1} %, 95 % CI {:.1}-{:.1} %), skipped {skipped} already stored; {} holds {total} of {} trials",
+        sweep.name,
+        ok,
+        if n > 0 { 100.0 * ok as f64 / n as f64 } else { 0.0 },
+        100.0 * lo,
+        100.0 * hi,
+        db.display(),
+        all.len()
+    );
+    Ok(())
 }

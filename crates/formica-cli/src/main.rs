@@ -14,7 +14,10 @@ mod cmd_serve;
 mod cmd_slurm;
 mod cmd_sweep;
 mod output;
+mod plots;
 mod stats;
+mod store;
+mod sweep;
 
 /// Formica: a simulator and behaviour suite for cooperative transport by robot swarms.
 #[derive(Parser)]

@@ -8,14 +8,15 @@ use crate::world::{Overrides, World};
 use serde::{Deserialize, Serialize};
 
 /// How a run ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Outcome {
     /// The object reached the goal (or the filling target was met).
     Success,
     /// The object touched a wall.
     Wall,
-    /// The time limit passed.
+    /// The time limit passed (also the outcome of a run still going on).
+    #[default]
     Timeout,
 }
 
@@ -31,7 +32,7 @@ impl Outcome {
 }
 
 /// The result of one run: the JSON line `formica run --json` prints.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct RunResult {
     /// Scenario name.
     pub scenario: String,
@@ -315,15 +316,7 @@ impl Run {
             ticks: world.tick,
             robots: world.robots.len(),
             controller: controller_names(world),
-            goal_distance_m: None,
-            object_path_m: 0.0,
-            path_efficiency: 0.0,
-            object_robots: None,
-            fill_time_s: None,
-            convexity_before: None,
-            convexity_after: None,
-            cavity_filled: None,
-            wall_time_s: 0.0,
+            ..RunResult::default()
         };
         for h in &self.hooks {
             h.finish(world, &mut result);

@@ -527,7 +527,8 @@ impl fmt::Display for Scenario {
     }
 }
 
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
+/// 1-based line and column of a byte offset in `text`.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(text.len());
     let before = &text[..offset];
     let line = before.matches('\n').count() + 1;
@@ -570,6 +571,143 @@ impl Scenario {
         };
         sc.validate()?;
         Ok(sc)
+    }
+
+    /// Parses the scenario `text` (named `file`) with some of its keys replaced: the sweep's
+    /// override mechanism. Each override is a dotted key path into the file (`"run.duration_s"`,
+    /// array elements by index: `"robots.0.count"`, `"objects.0.shape"`) and the value to put
+    /// there; missing tables on the way are created, later overrides win. The result is written
+    /// back to TOML and goes through [`Scenario::parse`], so every check of a hand-written file
+    /// applies.
+    ///
+    /// `origin` is `(file name, text)` of the file the overrides come from (a sweep file): errors
+    /// name that file, the position of the offending key in it, the key and, for values the
+    /// scenario rejects, what [`Scenario::parse`] said.
+    pub fn parse_with_overrides(
+        text: &str,
+        file: &str,
+        overrides: &[(String, toml::Value)],
+        origin: (&str, &str),
+    ) -> Result<Scenario, ScenarioError> {
+        let (origin_file, origin_text) = origin;
+        // Where the key is written in the origin file (quoted or bare), for the message.
+        let at = |key: &str, message: String| {
+            let offset = origin_text
+                .find(&format!("\"{key}\""))
+                .or_else(|| origin_text.find(&format!("'{key}'")))
+                .or_else(|| origin_text.find(key))
+                .unwrap_or(0);
+            let (line, column) = line_col(origin_text, offset);
+            ScenarioError::Invalid {
+                file: origin_file.to_string(),
+                line,
+                column,
+                message,
+            }
+        };
+        // Sets `value` at the dotted `key` in `root`.
+        fn set_path(root: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
+            let parts: Vec<&str> = key.split('.').collect();
+            if parts.iter().any(|p| p.is_empty()) {
+                return Err("expected a dotted key such as `robots.0.count`".into());
+            }
+            let mut here: &mut toml::Value = match root.get_mut(parts[0]) {
+                Some(v) if parts.len() > 1 => v,
+                _ if parts.len() == 1 => {
+                    root.insert(parts[0].to_string(), value);
+                    return Ok(());
+                }
+                _ => root
+                    .entry(parts[0].to_string())
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new())),
+            };
+            for (k, part) in parts.iter().enumerate().skip(1) {
+                let last = k + 1 == parts.len();
+                let so_far = parts[..k].join(".");
+                here = match here {
+                    toml::Value::Array(items) => {
+                        let n = items.len();
+                        let i: usize = part.parse().map_err(|_| {
+                            format!("`{so_far}` is an array: expected an index (0 to {}) after it, found `{part}`", n.saturating_sub(1))
+                        })?;
+                        let slot = items.get_mut(i).ok_or_else(|| {
+                            format!("`{so_far}` has {n} element(s): index {i} is out of range")
+                        })?;
+                        if last {
+                            *slot = value;
+                            return Ok(());
+                        }
+                        slot
+                    }
+                    toml::Value::Table(t) => {
+                        if last {
+                            t.insert((*part).to_string(), value);
+                            return Ok(());
+                        }
+                        t.entry((*part).to_string())
+                            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                    }
+                    other => {
+                        return Err(format!(
+                        "`{so_far}` is a {}, not a table or an array: cannot set `{part}` in it",
+                        other.type_str()
+                    ))
+                    }
+                };
+            }
+            Ok(())
+        }
+        let mut root: toml::Table = toml::from_str(text).map_err(|e| {
+            let (line, column) = line_col(text, e.span().map_or(0, |s| s.start));
+            ScenarioError::Invalid {
+                file: file.to_string(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        let write = |root: &toml::Table| {
+            toml::to_string(root).map_err(|e| ScenarioError::Invalid {
+                file: origin_file.to_string(),
+                line: 1,
+                column: 1,
+                message: format!("cannot write {file} back with the overrides: {e}"),
+            })
+        };
+        let base = root.clone();
+        for (key, value) in overrides {
+            set_path(&mut root, key, value.clone())
+                .map_err(|m| at(key, format!("`{key}`: {m} (in {file})")))?;
+        }
+        let full = match Scenario::parse(&write(&root)?, file) {
+            Ok(sc) => return Ok(sc),
+            Err(e) => e,
+        };
+        let message_of = |e: &ScenarioError| match e {
+            ScenarioError::Invalid { message, .. } | ScenarioError::Io { message, .. } => {
+                message.clone()
+            }
+        };
+        // Name the first override after which the scenario no longer validates; if the base
+        // file is already invalid by itself, report it at its own position.
+        let mut partial = base;
+        if let Err(e) = Scenario::parse(&write(&partial)?, file) {
+            if message_of(&e) == message_of(&full) {
+                Scenario::parse(text, file)?;
+            }
+        }
+        for (key, value) in overrides {
+            // Cannot fail: the same path was set above.
+            set_path(&mut partial, key, value.clone())
+                .map_err(|m| at(key, format!("`{key}`: {m}")))?;
+            if let Err(e) = Scenario::parse(&write(&partial)?, file) {
+                return Err(at(
+                    key,
+                    format!("`{key}` = {value}: {file} rejects it: {}", message_of(&e)),
+                ));
+            }
+        }
+        Err(full)
     }
 
     /// An error positioned at a span of the source.
@@ -805,6 +943,67 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         let (line, msg) = err(&text);
         assert_eq!(line, 7);
         assert!(msg.contains("self-intersecting"), "{msg}");
+    }
+
+    fn ov(pairs: &[(&str, &str)]) -> Vec<(String, toml::Value)> {
+        pairs
+            .iter()
+            .map(|(k, v)| {
+                let t: toml::Table = toml::from_str(&format!("v = {v}")).unwrap();
+                ((*k).to_string(), t["v"].clone())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn overrides_set_dotted_paths_and_array_elements() {
+        let o = ov(&[
+            ("robots.0.count", "7"),
+            ("objects.0.shape", "{ disc = 0.2 }"),
+            ("run.duration_s", "30"),
+            ("stop.goal_radius", "0.4"),
+        ]);
+        let s = Scenario::parse_with_overrides(MIN, "t.toml", &o, ("sweep.toml", "")).unwrap();
+        assert_eq!(s.robot_count(), 7);
+        assert_eq!(s.spec.run.duration_s, 30.0);
+        assert_eq!(s.spec.stop.goal_radius, Some(0.4));
+        assert_eq!(s.object_parts(0).unwrap()[0].shape, Primitive::Disc(0.2));
+        assert_eq!(s.name, "t");
+        assert_eq!(s.file, "t.toml");
+    }
+
+    #[test]
+    fn override_errors_name_the_sweep_file_and_the_key() {
+        let sweep = "seeds = \"1..2\"\n[vary]\n\"robots.0.cuont\" = [1]\n";
+        let e = Scenario::parse_with_overrides(
+            MIN,
+            "t.toml",
+            &ov(&[("run.duration_s", "5"), ("robots.0.cuont", "1")]),
+            ("sweep.toml", sweep),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.starts_with("sweep.toml:3:1: `robots.0.cuont`"), "{e}");
+        assert!(e.contains("unknown field `cuont`"), "{e}");
+        let e = Scenario::parse_with_overrides(
+            MIN,
+            "t.toml",
+            &ov(&[("robots.3.count", "1")]),
+            ("sweep.toml", ""),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("index 3 is out of range"), "{e}");
+        let e = Scenario::parse_with_overrides(
+            MIN,
+            "t.toml",
+            &ov(&[("robots.0.count", "0")]),
+            ("sweep.toml", ""),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("count must be at least 1"), "{e}");
+        assert!(e.contains("`robots.0.count` = 0"), "{e}");
     }
 
     #[test]

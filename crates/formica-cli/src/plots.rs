@@ -1,0 +1,310 @@
+//! Plots of `formica report`, drawn with plotters to PNG and SVG with an embedded font (no
+//! system libraries).
+
+use anyhow::{anyhow, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// The embedded font (DejaVu Sans; licence in `assets/DejaVuSans-LICENSE.txt`).
+const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+const FAMILY: &str = "sans-serif";
+
+/// Registers the embedded font; call once before drawing.
+pub fn init_font() -> Result<()> {
+    plotters::style::register_font(FAMILY, FontStyle::Normal, FONT)
+        .map_err(|_| anyhow!("the embedded font is invalid"))
+}
+
+/// A value with an interval, at one category of one series.
+#[derive(Debug, Clone, Copy)]
+pub struct Estimate {
+    /// The value.
+    pub y: f64,
+    /// Lower end of the interval.
+    pub lo: f64,
+    /// Upper end of the interval.
+    pub hi: f64,
+}
+
+/// Points with intervals over categories, one or more series.
+pub struct CategoryPlot {
+    /// Title.
+    pub title: String,
+    /// X axis description.
+    pub x_desc: String,
+    /// Y axis description.
+    pub y_desc: String,
+    /// Category labels, in order.
+    pub categories: Vec<String>,
+    /// Series: name and one optional estimate per category.
+    pub series: Vec<(String, Vec<Option<Estimate>>)>,
+    /// Y range (`None`: from the data).
+    pub y_range: Option<(f64, f64)>,
+    /// Join a series' points with a line (numeric categories).
+    pub connect: bool,
+}
+
+/// Step curves (survival) or polylines.
+pub struct LinePlot {
+    /// Title.
+    pub title: String,
+    /// X axis description.
+    pub x_desc: String,
+    /// Y axis description.
+    pub y_desc: String,
+    /// Curves: name and points.
+    pub curves: Vec<(String, Vec<(f64, f64)>)>,
+    /// Draw as steps (hold the value until the next point).
+    pub steps: bool,
+    /// Y range (`None`: from the data).
+    pub y_range: Option<(f64, f64)>,
+    /// Same scale on both axes (trajectories).
+    pub equal_axes: bool,
+    /// Show a legend (curves with an empty name get no entry).
+    pub legend: bool,
+    /// Palette index of each curve (empty: curve i gets colour i).
+    pub colors: Vec<usize>,
+}
+
+fn color(i: usize) -> RGBColor {
+    const C: [RGBColor; 10] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(127, 127, 127),
+        RGBColor(188, 189, 34),
+        RGBColor(23, 190, 207),
+    ];
+    C[i % C.len()]
+}
+
+fn pad(lo: f64, hi: f64) -> (f64, f64) {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-9 {
+        return (lo - 0.5, hi + 0.5);
+    }
+    let m = 0.05 * (hi - lo);
+    (lo - m, hi + m)
+}
+
+/// Draws a category plot on any backend.
+pub fn draw_category<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    p: &CategoryPlot,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+    let k = p.categories.len().max(1);
+    let (y0, y1) = p.y_range.unwrap_or_else(|| {
+        let vals = p
+            .series
+            .iter()
+            .flat_map(|(_, v)| v.iter().flatten())
+            .flat_map(|e| [e.lo, e.hi, e.y])
+            .filter(|v| v.is_finite());
+        let (lo, hi) = vals.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+        let (lo, hi) = pad(lo.min(0.0), hi);
+        (lo.max(0.0), hi)
+    });
+    let cats = p.categories.clone();
+    let longest = cats.iter().map(|c| c.chars().count()).max().unwrap_or(1);
+    let mut chart = ChartBuilder::on(root)
+        .caption(&p.title, (FAMILY, 22))
+        .margin(15)
+        .x_label_area_size(if longest > 12 { 70 } else { 45 })
+        .y_label_area_size(65)
+        .build_cartesian_2d(-0.5f64..(k as f64 - 0.5), y0..y1)
+        .map_err(|e| anyhow!("{e}"))?;
+    let fmt = move |x: &f64| {
+        let i = x.round();
+        if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < cats.len() {
+            cats[i as usize].clone()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_labels(k + 1)
+        .x_label_formatter(&fmt)
+        .disable_x_mesh()
+        .x_desc(&p.x_desc)
+        .y_desc(&p.y_desc)
+        .label_style((FAMILY, 13))
+        .axis_desc_style((FAMILY, 15))
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
+    let ns = p.series.len().max(1);
+    let width = 0.5_f64.min(0.15 * ns as f64);
+    for (s, (name, ests)) in p.series.iter().enumerate() {
+        let c = color(s);
+        let off = if ns > 1 {
+            -width / 2.0 + width * s as f64 / (ns - 1) as f64
+        } else {
+            0.0
+        };
+        let pts: Vec<(f64, Estimate)> = ests
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| e.map(|e| (i as f64 + off, e)))
+            .collect();
+        chart
+            .draw_series(pts.iter().map(|(x, e)| {
+                PathElement::new(
+                    vec![(*x, e.lo.clamp(y0, y1)), (*x, e.hi.clamp(y0, y1))],
+                    c.stroke_width(2),
+                )
+            }))
+            .map_err(|e| anyhow!("{e}"))?;
+        if p.connect && pts.len() > 1 {
+            chart
+                .draw_series(LineSeries::new(
+                    pts.iter().map(|(x, e)| (*x, e.y)),
+                    c.mix(0.4).stroke_width(1),
+                ))
+                .map_err(|e| anyhow!("{e}"))?;
+        }
+        let series = chart
+            .draw_series(
+                pts.iter()
+                    .map(|(x, e)| Circle::new((*x, e.y), 5, c.filled())),
+            )
+            .map_err(|e| anyhow!("{e}"))?;
+        if ns > 1 {
+            series
+                .label(name.as_str())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
+        }
+    }
+    if ns > 1 {
+        chart
+            .configure_series_labels()
+            .label_font((FAMILY, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+    }
+    root.present().map_err(|e| anyhow!("{e}"))?;
+    Ok(())
+}
+
+/// Draws a line plot on any backend.
+pub fn draw_lines<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, p: &LinePlot) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+    let all = p.curves.iter().flat_map(|(_, c)| c.iter());
+    let (mut x0, mut x1, mut ly0, mut ly1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (x, y) in all {
+        if x.is_finite() && y.is_finite() {
+            x0 = x0.min(*x);
+            x1 = x1.max(*x);
+            ly0 = ly0.min(*y);
+            ly1 = ly1.max(*y);
+        }
+    }
+    let (mut x0, mut x1) = pad(x0, x1);
+    let (mut y0, mut y1) = p.y_range.unwrap_or_else(|| pad(ly0, ly1));
+    if p.equal_axes {
+        let (w, h) = root.dim_in_pixel();
+        let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+        let scale = ((x1 - x0) / f64::from(w.max(1))).max((y1 - y0) / f64::from(h.max(1)));
+        x0 = cx - scale * f64::from(w) / 2.0;
+        x1 = cx + scale * f64::from(w) / 2.0;
+        y0 = cy - scale * f64::from(h) / 2.0;
+        y1 = cy + scale * f64::from(h) / 2.0;
+    }
+    let mut chart = ChartBuilder::on(root)
+        .caption(&p.title, (FAMILY, 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(65)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| anyhow!("{e}"))?;
+    chart
+        .configure_mesh()
+        .x_desc(&p.x_desc)
+        .y_desc(&p.y_desc)
+        .label_style((FAMILY, 13))
+        .axis_desc_style((FAMILY, 15))
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
+    for (i, (name, pts)) in p.curves.iter().enumerate() {
+        let c = color(p.colors.get(i).copied().unwrap_or(i));
+        let mut line: Vec<(f64, f64)> = Vec::with_capacity(pts.len() * 2);
+        for (j, &(x, y)) in pts.iter().enumerate() {
+            if p.steps && j > 0 {
+                line.push((x, line[line.len() - 1].1));
+            }
+            line.push((x, y));
+        }
+        let s = chart
+            .draw_series(LineSeries::new(line, c.stroke_width(2)))
+            .map_err(|e| anyhow!("{e}"))?;
+        if p.legend && !name.is_empty() {
+            s.label(name.as_str()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+            });
+        }
+    }
+    if p.legend && !p.curves.is_empty() {
+        chart
+            .configure_series_labels()
+            .label_font((FAMILY, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+    }
+    root.present().map_err(|e| anyhow!("{e}"))?;
+    Ok(())
+}
+
+/// Writes `stem.png` and `stem.svg` in `dir` with `draw`.
+macro_rules! both {
+    ($dir:expr, $stem:expr, $size:expr, $draw:ident, $plot:expr) => {{
+        let png = $dir.join(format!("{}.png", $stem));
+        let svg = $dir.join(format!("{}.svg", $stem));
+        {
+            let root = BitMapBackend::new(&png, $size).into_drawing_area();
+            $draw(&root, $plot)?;
+        }
+        {
+            let root = SVGBackend::new(&svg, $size).into_drawing_area();
+            $draw(&root, $plot)?;
+        }
+        Ok::<(), anyhow::Error>(())
+    }};
+}
+
+/// Saves a category plot as PNG and SVG.
+pub fn save_category(dir: &Path, stem: &str, p: &CategoryPlot) -> Result<()> {
+    let longest = p
+        .categories
+        .iter()
+        .map(|c| c.chars().count())
+        .max()
+        .unwrap_or(1) as u32;
+    let per = (8 * longest + 20).max(90);
+    let w = (160 + per * p.categories.len() as u32).clamp(640, 2400);
+    both!(dir, stem, (w, 480), draw_category, p)
+}
+
+/// Saves a line plot as PNG and SVG.
+pub fn save_lines(dir: &Path, stem: &str, p: &LinePlot) -> Result<()> {
+    let size = if p.equal_axes { (900, 640) } else { (800, 520) };
+    both!(dir, stem, size, draw_lines, p)
+}

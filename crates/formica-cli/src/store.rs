@@ -1,0 +1,416 @@
+//! The result store: one SQLite file (WAL mode), one row per finished trial, committed as each
+//! trial finishes so an interrupted sweep keeps everything it finished.
+//!
+//! Tables:
+//! - `meta(key, value)`: `name`, `digest` (of the sweep's fixed settings), `keys` (JSON list of
+//!   the varied keys), `sweep` (the file).
+//! - `trials`: `trial` (index in the full grid), `params` (canonical JSON), `seed`, one column
+//!   per varied key (named as the key, e.g. `robots.0.count`), then every `RunResult` metric
+//!   (`scenario_name` for the result's `scenario`). Primary key `(params, seed)`.
+//! - `trajectories(params, seed, samples)`: the object's path as JSON `[[t, x, y, theta], ...]`,
+//!   when the sweep stores trajectories.
+
+use crate::sweep::Sweep;
+use crate::CliError;
+use anyhow::Context;
+use formica::{Outcome, RunResult};
+use rusqlite::types::Value as SqlValue;
+use rusqlite::{params, Connection, OptionalExtension};
+use std::collections::HashSet;
+use std::path::Path;
+
+/// The metric columns, in order, with their SQL types.
+pub const METRICS: &[(&str, &str)] = &[
+    ("scenario_name", "TEXT"),
+    ("controller", "TEXT"),
+    ("robots", "INTEGER"),
+    ("outcome", "TEXT"),
+    ("sim_time_s", "REAL"),
+    ("ticks", "INTEGER"),
+    ("goal_distance_m", "REAL"),
+    ("object_path_m", "REAL"),
+    ("path_efficiency", "REAL"),
+    ("object_robots", "INTEGER"),
+    ("fill_time_s", "REAL"),
+    ("convexity_before", "REAL"),
+    ("convexity_after", "REAL"),
+    ("cavity_filled", "REAL"),
+    ("wall_time_s", "REAL"),
+];
+
+/// Columns every `trials` table starts with.
+pub const HEAD: &[&str] = &["trial", "params", "seed"];
+
+/// Quotes an SQL identifier.
+pub fn ident(name: &str) -> String {
+    format!("\"{}\"", name.replace('"', "\"\""))
+}
+
+/// An open result store.
+pub struct Store {
+    /// The connection.
+    pub conn: Connection,
+}
+
+/// One finished trial, ready to store.
+pub struct Row {
+    /// Index in the full grid.
+    pub trial: usize,
+    /// Canonical JSON of the parameter set.
+    pub params: String,
+    /// Varied keys and their values.
+    pub values: Vec<(String, toml::Value)>,
+    /// The result.
+    pub result: RunResult,
+    /// Object samples `[t, x, y, theta]`, if stored.
+    pub trajectory: Option<Vec<[f64; 4]>>,
+}
+
+fn sql_of(v: &toml::Value) -> SqlValue {
+    match v {
+        toml::Value::Integer(i) => SqlValue::Integer(*i),
+        toml::Value::Float(f) => SqlValue::Real(*f),
+        toml::Value::Boolean(b) => SqlValue::Integer(i64::from(*b)),
+        toml::Value::String(s) => SqlValue::Text(s.clone()),
+        other => SqlValue::Text(crate::sweep::canonical_json(other)),
+    }
+}
+
+impl Store {
+    /// Opens (creating if needed) a store.
+    pub fn open(path: &Path) -> Result<Store, CliError> {
+        if let Some(dir) = path.parent() {
+            if !dir.as_os_str().is_empty() {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+            }
+        }
+        let conn = Connection::open(path).with_context(|| format!("opening {}", path.display()))?;
+        conn.busy_timeout(std::time::Duration::from_secs(30))
+            .context("setting the busy timeout")?;
+        // WAL: a committed trial survives the process being killed at any moment.
+        conn.pragma_update(None, "journal_mode", "WAL")
+            .context("enabling WAL")?;
+        conn.pragma_update(None, "synchronous", "NORMAL")
+            .context("setting synchronous")?;
+        let metrics: Vec<String> = METRICS
+            .iter()
+            .map(|(n, t)| format!("{} {t}", ident(n)))
+            .collect();
+        conn.execute_batch(&format!(
+            "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+             CREATE TABLE IF NOT EXISTS trials (trial INTEGER NOT NULL, params TEXT NOT NULL,
+                 seed INTEGER NOT NULL, {}, PRIMARY KEY (params, seed));
+             CREATE TABLE IF NOT EXISTS trajectories (params TEXT NOT NULL, seed INTEGER NOT NULL,
+                 samples TEXT NOT NULL, PRIMARY KEY (params, seed));",
+            metrics.join(", ")
+        ))
+        .with_context(|| format!("creating the tables of {}", path.display()))?;
+        Ok(Store { conn })
+    }
+
+    /// Opens an existing store (for reading); a missing file is an input error.
+    pub fn open_existing(path: &Path) -> Result<Store, CliError> {
+        if !path.is_file() {
+            return Err(CliError::Input(format!(
+                "{}: no such result store",
+                path.display()
+            )));
+        }
+        let s = Store::open(path)?;
+        Ok(s)
+    }
+
+    /// A meta value.
+    pub fn meta(&self, key: &str) -> Result<Option<String>, CliError> {
+        Ok(self
+            .conn
+            .query_row("SELECT value FROM meta WHERE key = ?1", [key], |r| r.get(0))
+            .optional()
+            .context("reading meta")?)
+    }
+
+    /// Sets a meta value.
+    pub fn set_meta(&self, key: &str, value: &str) -> Result<(), CliError> {
+        self.conn
+            .execute(
+                "INSERT OR REPLACE INTO meta (key, value) VALUES (?1, ?2)",
+                [key, value],
+            )
+            .context("writing meta")?;
+        Ok(())
+    }
+
+    /// Records which sweep fills this store, or refuses a store made by a different one.
+    pub fn bind(&self, sweep: &Sweep, path: &Path) -> Result<(), CliError> {
+        match self.meta("digest")? {
+            Some(d) if d != sweep.digest => {
+                return Err(CliError::Input(format!(
+                    "{}: this store holds a different sweep (its base scenario, [set] or duration_s differ from {}); use another --db",
+                    path.display(),
+                    sweep.file.display()
+                )))
+            }
+            Some(_) => {}
+            None => {
+                self.set_meta("digest", &sweep.digest)?;
+                self.set_meta("name", &sweep.name)?;
+                self.set_meta("sweep", &sweep.file.display().to_string())?;
+            }
+        }
+        let mut keys: Vec<String> = match self.meta("keys")? {
+            Some(k) => serde_json::from_str(&k).unwrap_or_default(),
+            None => Vec::new(),
+        };
+        for k in &sweep.keys {
+            if !keys.contains(k) {
+                keys.push(k.clone());
+            }
+        }
+        self.set_meta(
+            "keys",
+            &serde_json::to_string(&keys).context("encoding keys")?,
+        )?;
+        self.ensure_columns(&sweep.keys)
+    }
+
+    /// The column names of `trials`.
+    pub fn columns(&self) -> Result<Vec<String>, CliError> {
+        columns_of(&self.conn, "main")
+    }
+
+    /// Adds a column for each varied key that has none yet.
+    pub fn ensure_columns(&self, keys: &[String]) -> Result<(), CliError> {
+        let have = self.columns()?;
+        for k in keys {
+            if !have.contains(k) {
+                self.conn
+                    .execute(&format!("ALTER TABLE trials ADD COLUMN {}", ident(k)), [])
+                    .with_context(|| format!("adding column {k}"))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The (params, seed) keys already stored.
+    pub fn done(&self) -> Result<HashSet<(String, u64)>, CliError> {
+        let mut st = self
+            .conn
+            .prepare("SELECT params, seed FROM trials")
+            .context("reading trials")?;
+        let rows = st
+            .query_map([], |r| {
+                Ok((r.get::<_, String>(0)?, r.get::<_, i64>(1)? as u64))
+            })
+            .context("reading trials")?;
+        let mut out = HashSet::new();
+        for r in rows {
+            out.insert(r.context("reading trials")?);
+        }
+        Ok(out)
+    }
+
+    /// Sets the grid index of stored trials (`(params, seed) -> trial`), so that a sweep file
+    /// whose grid grew keeps its rows in grid order.
+    pub fn reindex(&mut self, index: &[(&str, u64, usize)]) -> Result<(), CliError> {
+        let tx = self.conn.transaction().context("starting a transaction")?;
+        {
+            let mut st = tx
+                .prepare(
+                    "UPDATE trials SET trial = ?1 WHERE params = ?2 AND seed = ?3 AND trial <> ?1",
+                )
+                .context("renumbering trials")?;
+            for (p, seed, i) in index {
+                st.execute(params![*i as i64, p, *seed as i64])
+                    .context("renumbering trials")?;
+            }
+        }
+        tx.commit().context("renumbering trials")?;
+        Ok(())
+    }
+
+    /// Number of stored trials.
+    pub fn count(&self) -> Result<usize, CliError> {
+        let n: i64 = self
+            .conn
+            .query_row("SELECT COUNT(*) FROM trials", [], |r| r.get(0))
+            .context("counting trials")?;
+        Ok(n as usize)
+    }
+
+    /// Stores one trial (and its trajectory) in one transaction.
+    pub fn insert(&mut self, row: &Row) -> Result<(), CliError> {
+        let r = &row.result;
+        let mut cols: Vec<String> = HEAD.iter().map(|s| ident(s)).collect();
+        let mut vals: Vec<SqlValue> = vec![
+            SqlValue::Integer(row.trial as i64),
+            SqlValue::Text(row.params.clone()),
+            SqlValue::Integer(r.seed as i64),
+        ];
+        for (k, v) in &row.values {
+            cols.push(ident(k));
+            vals.push(sql_of(v));
+        }
+        let opt_f = |x: Option<f64>| x.map_or(SqlValue::Null, SqlValue::Real);
+        let metrics = [
+            SqlValue::Text(r.scenario.clone()),
+            SqlValue::Text(r.controller.clone()),
+            SqlValue::Integer(r.robots as i64),
+            SqlValue::Text(r.outcome.name().to_string()),
+            SqlValue::Real(r.sim_time_s),
+            SqlValue::Integer(r.ticks as i64),
+            opt_f(r.goal_distance_m),
+            SqlValue::Real(r.object_path_m),
+            SqlValue::Real(r.path_efficiency),
+            r.object_robots
+                .map_or(SqlValue::Null, |n| SqlValue::Integer(n as i64)),
+            opt_f(r.fill_time_s),
+            opt_f(r.convexity_before),
+            opt_f(r.convexity_after),
+            opt_f(r.cavity_filled),
+            SqlValue::Real(r.wall_time_s),
+        ];
+        for ((name, _), v) in METRICS.iter().zip(metrics) {
+            cols.push(ident(name));
+            vals.push(v);
+        }
+        let marks: Vec<String> = (1..=vals.len()).map(|i| format!("?{i}")).collect();
+        let tx = self.conn.transaction().context("starting a transaction")?;
+        tx.execute(
+            &format!(
+                "INSERT OR REPLACE INTO trials ({}) VALUES ({})",
+                cols.join(", "),
+                marks.join(", ")
+            ),
+            rusqlite::params_from_iter(vals),
+        )
+        .context("storing a trial")?;
+        if let Some(tr) = &row.trajectory {
+            let json = serde_json::to_string(tr).context("encoding a trajectory")?;
+            tx.execute(
+                "INSERT OR REPLACE INTO trajectories (params, seed, samples) VALUES (?1, ?2, ?3)",
+                params![row.params, r.seed as i64, json],
+            )
+            .context("storing a trajectory")?;
+        }
+        tx.commit().context("committing a trial")?;
+        Ok(())
+    }
+
+    /// Every stored trial, in grid order.
+    pub fn results(&self) -> Result<Vec<StoredTrial>, CliError> {
+        let sel: Vec<String> = HEAD
+            .iter()
+            .chain(METRICS.iter().map(|(n, _)| n))
+            .map(|s| ident(s))
+            .collect();
+        let mut st = self
+            .conn
+            .prepare(&format!(
+                "SELECT {} FROM trials ORDER BY trial, seed",
+                sel.join(", ")
+            ))
+            .context("reading trials")?;
+        let rows = st
+            .query_map([], |r| {
+                let outcome: String = r.get(6)?;
+                let outcome = match outcome.as_str() {
+                    "success" => Outcome::Success,
+                    "wall" => Outcome::Wall,
+                    _ => Outcome::Timeout,
+                };
+                let params: String = r.get(1)?;
+                Ok(StoredTrial {
+                    params: serde_json::from_str(&params).unwrap_or_default(),
+                    params_json: params,
+                    result: RunResult {
+                        scenario: r.get(3)?,
+                        seed: r.get::<_, i64>(2)? as u64,
+                        outcome,
+                        sim_time_s: r.get(7)?,
+                        ticks: r.get::<_, i64>(8)? as u64,
+                        robots: r.get::<_, i64>(5)? as usize,
+                        controller: r.get(4)?,
+                        goal_distance_m: r.get(9)?,
+                        object_path_m: r.get(10)?,
+                        path_efficiency: r.get(11)?,
+                        object_robots: r.get::<_, Option<i64>>(12)?.map(|n| n as usize),
+                        fill_time_s: r.get(13)?,
+                        convexity_before: r.get(14)?,
+                        convexity_after: r.get(15)?,
+                        cavity_filled: r.get(16)?,
+                        wall_time_s: r.get(17)?,
+                    },
+                })
+            })
+            .context("reading trials")?;
+        let mut out = Vec::new();
+        for r in rows {
+            out.push(r.context("reading a trial")?);
+        }
+        Ok(out)
+    }
+
+    /// Stored trajectories: (params JSON, seed, samples).
+    pub fn trajectories(&self, limit: usize) -> Result<Vec<StoredTrajectory>, CliError> {
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT params, seed, samples FROM trajectories ORDER BY params, seed LIMIT ?1",
+            )
+            .context("reading trajectories")?;
+        let rows = st
+            .query_map([limit as i64], |r| {
+                Ok((
+                    r.get::<_, String>(0)?,
+                    r.get::<_, i64>(1)? as u64,
+                    r.get::<_, String>(2)?,
+                ))
+            })
+            .context("reading trajectories")?;
+        let mut out = Vec::new();
+        for r in rows {
+            let (p, s, json) = r.context("reading a trajectory")?;
+            let samples: Vec<[f64; 4]> =
+                serde_json::from_str(&json).context("decoding a trajectory")?;
+            out.push((p, s, samples));
+        }
+        Ok(out)
+    }
+
+    /// The varied keys recorded in the store.
+    pub fn keys(&self) -> Result<Vec<String>, CliError> {
+        Ok(match self.meta("keys")? {
+            Some(k) => serde_json::from_str(&k).context("decoding meta keys")?,
+            None => Vec::new(),
+        })
+    }
+}
+
+/// A stored object path: params JSON, seed, samples `[t, x, y, theta]`.
+pub type StoredTrajectory = (String, u64, Vec<[f64; 4]>);
+
+/// One trial read back from a store.
+pub struct StoredTrial {
+    /// Parameter set.
+    pub params: serde_json::Map<String, serde_json::Value>,
+    /// Its canonical JSON.
+    pub params_json: String,
+    /// The metrics (`wall_time_s` as measured).
+    pub result: RunResult,
+}
+
+/// Column names of `trials` in schema `db`.
+pub fn columns_of(conn: &Connection, db: &str) -> Result<Vec<String>, CliError> {
+    let mut st = conn
+        .prepare(&format!("PRAGMA {}.table_info(trials)", ident(db)))
+        .context("reading the table layout")?;
+    let rows = st
+        .query_map([], |r| r.get::<_, String>(1))
+        .context("reading the table layout")?;
+    let mut out = Vec::new();
+    for r in rows {
+        out.push(r.context("reading the table layout")?);
+    }
+    Ok(out)
+}

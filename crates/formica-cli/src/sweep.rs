@@ -1,0 +1,403 @@
+//! Sweep files: a base scenario, the scenario keys to vary, and the seeds. Expands into the
+//! ordered list of trials that `formica sweep` runs and `--shard` splits.
+
+use crate::CliError;
+use formica::scenario::line_col;
+use formica::Scenario;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A sweep file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SweepSpec {
+    /// Name of the study (default: the file stem).
+    #[serde(default)]
+    name: Option<String>,
+    /// Base scenario, relative to the sweep file (a case may name its own).
+    #[serde(default)]
+    scenario: Option<String>,
+    /// `"A..B"` (inclusive) or a list of seeds.
+    seeds: toml::Value,
+    /// Simulated time limit of every trial (same as `"run.duration_s"` in `[set]`).
+    #[serde(default)]
+    duration_s: Option<f64>,
+    /// Store the object's trajectory of every trial.
+    #[serde(default)]
+    trajectories: bool,
+    /// Fixed overrides applied to every trial.
+    #[serde(default)]
+    set: toml::Table,
+    /// Explicit parameter sets (each a table of overrides, `scenario` allowed).
+    #[serde(default)]
+    cases: Vec<toml::Table>,
+    /// Keys to vary, each with its list of values: the grid is their product.
+    #[serde(default)]
+    vary: toml::Table,
+}
+
+/// Keys of a case that are not scenario overrides: `scenario` (the base file) and `label` (a
+/// name for reports).
+pub const NOT_OVERRIDES: &[&str] = &["scenario", "label"];
+
+/// One parameter set: the overrides that distinguish it (the sweep's `cases` and `[vary]` keys,
+/// `scenario` included when a case names one), in key order.
+pub type Params = BTreeMap<String, toml::Value>;
+
+/// A loaded sweep.
+pub struct Sweep {
+    /// Study name.
+    pub name: String,
+    /// The sweep file, as given.
+    pub file: PathBuf,
+    /// The distinct parameter sets, in grid order.
+    pub sets: Vec<ParamSet>,
+    /// Seeds, in order.
+    pub seeds: Vec<u64>,
+    /// Store object trajectories.
+    pub trajectories: bool,
+    /// The keys that distinguish parameter sets (one result column each).
+    pub keys: Vec<String>,
+    /// A digest of everything fixed (base scenario texts, `[set]`, `duration_s`): a store made
+    /// by a different sweep is refused.
+    pub digest: String,
+}
+
+/// One parameter set, ready to run.
+pub struct ParamSet {
+    /// Its parameters.
+    pub params: Params,
+    /// Canonical JSON of `params`: with the seed, the key of a trial in the store.
+    pub key: String,
+    /// The scenario with every override applied.
+    pub scenario: Scenario,
+}
+
+/// One trial of the grid.
+#[derive(Debug, Clone, Copy)]
+pub struct Trial {
+    /// Position in the full grid (parameter sets outer, seeds inner).
+    pub index: usize,
+    /// Index into [`Sweep::sets`].
+    pub set: usize,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// Canonical JSON (sorted keys, no spaces) of a TOML value.
+pub fn canonical_json(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => serde_json::Value::String(s.clone()).to_string(),
+        toml::Value::Integer(i) => i.to_string(),
+        toml::Value::Float(f) => {
+            serde_json::Number::from_f64(*f).map_or_else(|| format!("\"{f}\""), |n| n.to_string())
+        }
+        toml::Value::Boolean(b) => b.to_string(),
+        toml::Value::Datetime(d) => serde_json::Value::String(d.to_string()).to_string(),
+        toml::Value::Array(a) => {
+            let items: Vec<String> = a.iter().map(canonical_json).collect();
+            format!("[{}]", items.join(","))
+        }
+        toml::Value::Table(t) => {
+            let sorted: BTreeMap<&String, &toml::Value> = t.iter().collect();
+            let items: Vec<String> = sorted
+                .into_iter()
+                .map(|(k, v)| {
+                    format!(
+                        "{}:{}",
+                        serde_json::Value::String(k.clone()),
+                        canonical_json(v)
+                    )
+                })
+                .collect();
+            format!("{{{}}}", items.join(","))
+        }
+    }
+}
+
+/// Canonical JSON of a parameter set.
+pub fn params_json(p: &Params) -> String {
+    let t: toml::Table = p.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    canonical_json(&toml::Value::Table(t))
+}
+
+/// FNV-1a, 64 bits: a stable digest (std's hasher may change between releases).
+pub fn fnv64(parts: &[&str]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for p in parts {
+        for b in p.bytes().chain(std::iter::once(0xff)) {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    format!("{h:016x}")
+}
+
+/// Flattens `[vary]`: nested tables become dotted keys until a list of values is reached.
+fn flatten_vary(
+    prefix: &str,
+    t: &toml::Table,
+    out: &mut Vec<(String, Vec<toml::Value>)>,
+) -> Result<(), String> {
+    for (k, v) in t {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            toml::Value::Array(a) if !a.is_empty() => out.push((key, a.clone())),
+            toml::Value::Array(_) => {
+                return Err(format!(
+                    "[vary] `{key}`: expected a non-empty list of values"
+                ))
+            }
+            toml::Value::Table(inner) => flatten_vary(&key, inner, out)?,
+            other => {
+                return Err(format!(
+                    "[vary] `{key}`: expected a list of values, found a {}",
+                    other.type_str()
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+fn parse_seeds(s: &toml::Value) -> Result<Vec<u64>, String> {
+    let expected = "seeds: expected \"A..B\" (inclusive, A <= B) or a list of seeds";
+    match s {
+        toml::Value::Array(items) if !items.is_empty() => {
+            let l: Vec<u64> = items
+                .iter()
+                .map(|v| match v {
+                    toml::Value::Integer(i) if *i >= 0 => Ok(*i as u64),
+                    _ => Err(format!("{expected}, found {v} in the list")),
+                })
+                .collect::<Result<_, _>>()?;
+            let mut seen = std::collections::BTreeSet::new();
+            for x in &l {
+                if !seen.insert(*x) {
+                    return Err(format!("seeds: seed {x} is listed twice"));
+                }
+            }
+            Ok(l)
+        }
+        toml::Value::String(r) => crate::cmd_run::seed_range(r)
+            .map(|s| s.collect())
+            .ok_or_else(|| {
+                format!("seeds: expected \"A..B\" (inclusive, A <= B) or a list, got `{r}`")
+            }),
+        other => Err(format!("{expected}, found {other}")),
+    }
+}
+
+impl Sweep {
+    /// Reads a sweep file, expands its grid and validates every parameter set.
+    pub fn load(path: &Path) -> Result<Sweep, CliError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
+        let spec: SweepSpec = toml::from_str(&text).map_err(|e| {
+            let (line, col) = line_col(&text, e.span().map_or(0, |s| s.start));
+            CliError::Input(format!("{file}:{line}:{col}: {}", e.message().trim()))
+        })?;
+        let input = |m: String| {
+            // Point at the first mention of what the message quotes, if any.
+            let pos = m.split('`').nth(1).and_then(|k| text.find(k)).unwrap_or(0);
+            let (line, col) = line_col(&text, pos);
+            CliError::Input(format!("{file}:{line}:{col}: {m}"))
+        };
+        let seeds = parse_seeds(&spec.seeds).map_err(input)?;
+        let mut vary = Vec::new();
+        flatten_vary("", &spec.vary, &mut vary).map_err(input)?;
+        // The grid's order: keys sorted (whatever order the TOML map keeps), values as listed.
+        vary.sort_by(|a, b| a.0.cmp(&b.0));
+        let mut cases = spec.cases.clone();
+        if cases.is_empty() {
+            cases.push(toml::Table::new());
+        }
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut fixed: Vec<(String, toml::Value)> = spec
+            .set
+            .iter()
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect();
+        fixed.sort_by(|a, b| a.0.cmp(&b.0));
+        if let Some(d) = spec.duration_s {
+            if !(d > 0.0 && d.is_finite()) {
+                return Err(input(format!(
+                    "`duration_s`: expected a positive number of seconds, got {d}"
+                )));
+            }
+            fixed.push(("run.duration_s".into(), toml::Value::Float(d)));
+        }
+        for (k, _) in &vary {
+            if NOT_OVERRIDES.contains(&k.as_str()) {
+                continue;
+            }
+            if fixed.iter().any(|(f, _)| f == k) {
+                return Err(input(format!(
+                    "`{k}` is both set and varied: keep it in one place"
+                )));
+            }
+        }
+        // Grid: cases (outer) x product of vary lists (last key fastest).
+        let mut grid: Vec<Params> = Vec::new();
+        for case in &cases {
+            let mut combos: Vec<Params> =
+                vec![case.iter().map(|(k, v)| (k.clone(), v.clone())).collect()];
+            for (k, values) in &vary {
+                let mut next = Vec::with_capacity(combos.len() * values.len());
+                for c in &combos {
+                    for v in values {
+                        let mut c = c.clone();
+                        c.insert(k.clone(), v.clone());
+                        next.push(c);
+                    }
+                }
+                combos = next;
+            }
+            grid.extend(combos);
+        }
+        let mut keys: Vec<String> = Vec::new();
+        for p in &grid {
+            for k in p.keys() {
+                if !keys.contains(k) {
+                    keys.push(k.clone());
+                }
+            }
+        }
+        keys.sort();
+        // Load each base scenario once.
+        let mut texts: BTreeMap<String, (String, String)> = BTreeMap::new();
+        let mut load_base = |rel: &str| -> Result<(String, String), CliError> {
+            if let Some(t) = texts.get(rel) {
+                return Ok(t.clone());
+            }
+            let p = dir.join(rel);
+            let name = p.display().to_string();
+            let t = std::fs::read_to_string(&p)
+                .map_err(|e| input(format!("`{rel}`: cannot read {name}: {e}")))?;
+            texts.insert(rel.to_string(), (name.clone(), t.clone()));
+            Ok((name, t))
+        };
+        let mut sets = Vec::with_capacity(grid.len());
+        let mut seen = std::collections::BTreeSet::new();
+        for params in grid {
+            let base_rel = match params.get("scenario") {
+                Some(toml::Value::String(s)) => s.clone(),
+                Some(other) => {
+                    return Err(input(format!(
+                        "`scenario`: expected a file name, found a {}",
+                        other.type_str()
+                    )))
+                }
+                None => spec.scenario.clone().ok_or_else(|| {
+                    input("expected `scenario = \"path/to/base.toml\"` (relative to this file), at the top or in every case".into())
+                })?,
+            };
+            let (base_name, base_text) = load_base(&base_rel)?;
+            let mut ov = fixed.clone();
+            ov.extend(
+                params
+                    .iter()
+                    .filter(|(k, _)| !NOT_OVERRIDES.contains(&k.as_str()))
+                    .map(|(k, v)| (k.clone(), v.clone())),
+            );
+            let scenario =
+                Scenario::parse_with_overrides(&base_text, &base_name, &ov, (&file, &text))?;
+            let key = params_json(&params);
+            if !seen.insert(key.clone()) {
+                return Err(input(format!(
+                    "the parameter set {key} appears twice: every case must differ"
+                )));
+            }
+            sets.push(ParamSet {
+                params,
+                key,
+                scenario,
+            });
+        }
+        let mut digest_parts: Vec<String> = Vec::new();
+        if let Some(s) = &spec.scenario {
+            digest_parts.push(s.clone());
+        }
+        for (rel, (_, t)) in &texts {
+            digest_parts.push(rel.clone());
+            digest_parts.push(t.clone());
+        }
+        for (k, v) in &fixed {
+            digest_parts.push(format!("{k}={}", canonical_json(v)));
+        }
+        let refs: Vec<&str> = digest_parts.iter().map(String::as_str).collect();
+        let name = spec.name.clone().unwrap_or_else(|| {
+            path.file_stem()
+                .map_or_else(|| file.clone(), |s| s.to_string_lossy().into_owned())
+        });
+        Ok(Sweep {
+            name,
+            file: path.to_path_buf(),
+            sets,
+            seeds,
+            trajectories: spec.trajectories,
+            keys,
+            digest: fnv64(&refs),
+        })
+    }
+
+    /// Every trial of the grid, in order.
+    pub fn trials(&self) -> Vec<Trial> {
+        let mut out = Vec::with_capacity(self.sets.len() * self.seeds.len());
+        for set in 0..self.sets.len() {
+            for &seed in &self.seeds {
+                out.push(Trial {
+                    index: out.len(),
+                    set,
+                    seed,
+                });
+            }
+        }
+        out
+    }
+}
+
+/// Parses `K/N` (0 <= K < N).
+pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
+    let bad = || CliError::Input(format!("--shard: expected K/N with 0 <= K < N, got `{s}`"));
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let k: usize = k.trim().parse().map_err(|_| bad())?;
+    let n: usize = n.trim().parse().map_err(|_| bad())?;
+    if n == 0 || k >= n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn canonical_json_sorts_keys() {
+        let t: toml::Table = toml::from_str("b = 1\na = { z = [1, 2.5], y = \"s\" }").unwrap();
+        assert_eq!(
+            canonical_json(&toml::Value::Table(t)),
+            r#"{"a":{"y":"s","z":[1,2.5]},"b":1}"#
+        );
+    }
+
+    #[test]
+    fn shard_and_seeds_parse() {
+        assert_eq!(parse_shard("1/4").ok(), Some((1, 4)));
+        assert!(parse_shard("4/4").is_err());
+        assert_eq!(
+            parse_seeds(&toml::Value::String("3..5".into())).unwrap(),
+            vec![3, 4, 5]
+        );
+        let twice = toml::Value::Array(vec![toml::Value::Integer(1), toml::Value::Integer(1)]);
+        assert!(parse_seeds(&twice).is_err());
+        assert!(parse_seeds(&toml::Value::Integer(5)).is_err());
+    }
+}

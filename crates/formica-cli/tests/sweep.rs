@@ -1,0 +1,287 @@
+//! `formica sweep`, `export`, `merge`, `report` and `slurm` as users call them: an interrupted
+//! sweep resumes to the same rows as an uninterrupted one, results do not depend on the thread
+//! count or on sharding, and bad sweep files exit with code 2.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn formica() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_formica"))
+}
+
+fn repo(p: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(p)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("formica-sweep-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn ok(out: Output) -> Output {
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// A small, fast sweep (36 trials of up to 200 simulated seconds) on the seed's transport scenario,
+/// scaled down so that objects move and trials end in every way.
+fn write_sweep(dir: &Path, seeds: &str) -> PathBuf {
+    let base = repo("scenarios/seed-transport.toml");
+    let text = format!(
+        r#"name = "test-sweep"
+scenario = "{}"
+seeds = "{seeds}"
+duration_s = 200
+
+[set]
+"objects.0.mass" = 5.0
+"objects.0.floor_mu" = 0.05
+
+[vary]
+"robots.0.count" = [6, 12]
+"robots.0.controller" = ["occlusion", "random-walk"]
+"objects.0.shape" = [{{ box = [0.4, 0.4] }}]
+"#,
+        base.display().to_string().replace('\\', "/")
+    );
+    let p = dir.join("sweep.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn sweep(file: &Path, db: &Path, extra: &[&str]) -> Output {
+    formica()
+        .arg("sweep")
+        .arg(file)
+        .arg("--db")
+        .arg(db)
+        .arg("--quiet")
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// The CSV export without the wall-clock column (the only one that is not deterministic).
+fn rows(db: &Path) -> Vec<String> {
+    let out = ok(formica()
+        .arg("export")
+        .arg(db)
+        .args(["--csv", "-"])
+        .output()
+        .unwrap());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let wall = header.iter().position(|h| *h == "wall_time_s").unwrap();
+    assert_eq!(wall, header.len() - 1, "wall_time_s is the last column");
+    std::iter::once(header[..wall].join(","))
+        .chain(lines.map(|l| l[..l.rfind(',').unwrap()].to_string()))
+        .collect()
+}
+
+fn count(db: &Path) -> usize {
+    let Ok(conn) =
+        rusqlite::Connection::open_with_flags(db, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+    else {
+        return 0;
+    };
+    let _ = conn.busy_timeout(Duration::from_secs(5));
+    conn.query_row("SELECT COUNT(*) FROM trials", [], |r| r.get::<_, i64>(0))
+        .map_or(0, |n| n as usize)
+}
+
+#[test]
+fn killed_sweep_resumes_to_the_rows_of_an_uninterrupted_one() {
+    let dir = tmp("resume");
+    let file = write_sweep(&dir, "1..9");
+    let full = dir.join("full.db");
+    ok(sweep(&file, &full, &["--threads", "2"]));
+    let reference = rows(&full);
+    assert_eq!(reference.len(), 1 + 36, "{reference:#?}");
+
+    // Interrupted: kill -9 once a few trials are stored.
+    let killed = dir.join("killed.db");
+    let mut child = formica()
+        .arg("sweep")
+        .arg(&file)
+        .arg("--db")
+        .arg(&killed)
+        .args(["--quiet", "--threads", "1"])
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let mut finished_early = false;
+    loop {
+        if count(&killed) >= 3 {
+            break;
+        }
+        if child.try_wait().unwrap().is_some() {
+            finished_early = true;
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no rows appeared"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    let stored = count(&killed);
+    assert!(
+        !finished_early && (3..36).contains(&stored),
+        "the sweep was not killed halfway: {stored} of 36 trials stored"
+    );
+    // Rerun: only the missing trials run, and the rows equal the uninterrupted run's.
+    let out = ok(sweep(&file, &killed, &[]));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(&format!("ran {} trials", 36 - stored)),
+        "{text}"
+    );
+    assert_eq!(rows(&killed), reference);
+    // Running again does nothing.
+    let out = ok(sweep(&file, &killed, &[]));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("ran 0 trials"));
+}
+
+#[test]
+fn thread_count_and_shards_do_not_change_results() {
+    let dir = tmp("shards");
+    let file = write_sweep(&dir, "1..4");
+    let one = dir.join("one.db");
+    ok(sweep(&file, &one, &["--threads", "1"]));
+    let two = dir.join("two.db");
+    ok(sweep(&file, &two, &["--threads", "2"]));
+    let reference = rows(&one);
+    assert_eq!(reference.len(), 1 + 16);
+    assert_eq!(rows(&two), reference);
+
+    let mut shards = Vec::new();
+    for k in 0..3 {
+        let db = dir.join(format!("shard-{k}.db"));
+        ok(sweep(
+            &file,
+            &db,
+            &["--shard", &format!("{k}/3"), "--trajectories"],
+        ));
+        shards.push(db);
+    }
+    assert_eq!(count(&shards[0]), 6); // trials 0, 3, ..., 15
+    let merged = dir.join("merged.db");
+    ok(formica()
+        .arg("merge")
+        .arg(&merged)
+        .args(&shards)
+        .output()
+        .unwrap());
+    assert_eq!(rows(&merged), reference);
+
+    // Report: every figure as PNG and SVG, and the summary table.
+    let out_dir = dir.join("report");
+    ok(formica()
+        .arg("report")
+        .arg(&merged)
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .unwrap());
+    for f in [
+        "success-robots-0-count",
+        "success-robots-0-controller",
+        "path-efficiency-robots-0-count",
+        "survival",
+        "trajectories",
+    ] {
+        for ext in ["png", "svg"] {
+            let p = out_dir.join(format!("{f}.{ext}"));
+            assert!(
+                std::fs::metadata(&p).unwrap().len() > 1000,
+                "{}",
+                p.display()
+            );
+        }
+    }
+    let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+    assert!(md.contains("| occlusion | 6 | 4 |"), "{md}");
+}
+
+#[test]
+fn bad_sweep_files_exit_with_code_2_naming_file_and_key() {
+    let dir = tmp("bad");
+    let file = write_sweep(&dir, "1..2");
+    let text = std::fs::read_to_string(&file).unwrap();
+    for (from, to, expect) in [
+        (
+            "\"robots.0.count\"",
+            "\"robots.0.cuont\"",
+            "unknown field `cuont`",
+        ),
+        ("[6, 12]", "[6, 0]", "count must be at least 1"),
+        (
+            "\"robots.0.count\"",
+            "\"robots.4.count\"",
+            "index 4 is out of range",
+        ),
+        ("\"1..2\"", "\"2..1\"", "seeds"),
+    ] {
+        let bad = dir.join("bad.toml");
+        std::fs::write(&bad, text.replace(from, to)).unwrap();
+        let out = sweep(&bad, &dir.join("bad.db"), &[]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains("bad.toml:"), "{err}");
+        assert!(err.contains(expect), "{err}");
+    }
+}
+
+#[test]
+fn slurm_writes_a_job_array_over_the_shards() {
+    let dir = tmp("slurm");
+    let file = write_sweep(&dir, "1..2");
+    let script = dir.join("job.slurm");
+    ok(formica()
+        .arg("slurm")
+        .arg(&file)
+        .args(["--array", "4", "--db-dir"])
+        .arg(dir.join("shards"))
+        .arg("--script")
+        .arg(&script)
+        .output()
+        .unwrap());
+    let s = std::fs::read_to_string(&script).unwrap();
+    assert!(s.starts_with("#!/bin/bash\n"), "{s}");
+    assert!(s.contains("#SBATCH --array=0-3\n"), "{s}");
+    assert!(s.contains("--shard \"$SLURM_ARRAY_TASK_ID/4\""), "{s}");
+    assert!(s.contains("shard-$SLURM_ARRAY_TASK_ID.db"), "{s}");
+}
+
+#[test]
+fn every_shipped_study_builds_every_parameter_set() {
+    let dir = tmp("studies");
+    for entry in std::fs::read_dir(repo("experiments")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            // `--limit 0`: validate the file and build every parameter set's world, run nothing.
+            let db = dir.join(path.file_name().unwrap()).with_extension("db");
+            let out = sweep(&path, &db, &["--limit", "0"]);
+            assert!(
+                out.status.success(),
+                "{}: {}",
+                path.display(),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+    }
+}

@@ -1,0 +1,103 @@
+//! `formica serve` and `formica record` as users call them.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+fn formica() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_formica"))
+}
+
+fn repo(p: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(p)
+}
+
+#[test]
+fn record_writes_an_animated_gif() {
+    let dir = std::env::temp_dir().join(format!("formica-record-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.join("run.gif");
+    let o = formica()
+        .args(["record", "--duration", "3", "--seed", "2", "--width", "200"])
+        .args(["--fps", "10", "--speed", "10", "--occlusion", "--out"])
+        .arg(&out)
+        .arg(repo("scenarios/seed-transport.toml"))
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    // 3 s at one frame per simulated second, plus the first frame.
+    assert!(text.contains("4 frames"), "{text}");
+    let bytes = std::fs::read(&out).expect("GIF written");
+    assert!(bytes.starts_with(b"GIF89a"));
+    let _ = std::fs::remove_dir_all(&dir);
+
+    for (args, msg) in [
+        (vec!["--out", "x.mp4"], "MP4"),
+        (vec!["--out", "x.png"], ".gif"),
+        (vec!["--out", "x.gif", "--fps", "0"], "--fps"),
+        (vec!["--out", "x.gif", "--width", "10"], "--width"),
+    ] {
+        let o = formica()
+            .arg("record")
+            .args(&args)
+            .arg(repo("scenarios/seed-transport.toml"))
+            .output()
+            .expect("runs");
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(String::from_utf8_lossy(&o.stderr).contains(msg), "{args:?}");
+    }
+}
+
+#[test]
+fn serve_listens_on_loopback_and_answers() {
+    let mut child = formica()
+        .args(["serve", "--port", "0"])
+        .arg(repo("scenarios/seed-transport.toml"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starts");
+    let mut line = String::new();
+    if let Some(out) = child.stdout.take() {
+        let _ = BufReader::new(out).read_line(&mut line);
+    }
+    let url = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .map(str::to_string);
+    let result = (|| {
+        let url = url.ok_or_else(|| format!("no address in `{line}`"))?;
+        let authority = url
+            .trim_start_matches("http://")
+            .trim_end_matches('/')
+            .to_string();
+        if !authority.starts_with("127.0.0.1:") {
+            return Err(format!("listening on {authority}, not loopback"));
+        }
+        let mut s = std::net::TcpStream::connect(&authority).map_err(|e| e.to_string())?;
+        s.set_read_timeout(Some(Duration::from_secs(10)))
+            .map_err(|e| e.to_string())?;
+        write!(s, "GET /api/state HTTP/1.1\r\nHost: {authority}\r\n\r\n")
+            .map_err(|e| e.to_string())?;
+        let mut resp = String::new();
+        let _ = s.read_to_string(&mut resp);
+        if !resp.starts_with("HTTP/1.1 200") || !resp.contains("\"tick\":0") {
+            return Err(format!("unexpected answer: {resp:.200}"));
+        }
+        Ok(())
+    })();
+    let _ = child.kill();
+    let _ = child.wait();
+    result.expect("serve answers on loopback");
+
+    // A bad scenario is an input error, as for `formica run`.
+    let o = formica()
+        .args(["serve", "no-such-file.toml", "--port", "0"])
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(2));
+}
