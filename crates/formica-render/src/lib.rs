@@ -188,3 +188,428 @@ pub fn save_png(
     pm.save_png(path)
         .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
 }
+
+/// The floor zones where robots' light sensors cannot see the goal light because an object
+/// hides it, as polygons (counter-clockwise, world coordinates; their union is the zone).
+///
+/// Uses the occlusion rule of [`formica::sensors::light_blocked`]: a sensor at `sensor_height`
+/// behind an object of height `h` is in shadow out to `1 / (1 - k)` times the object's
+/// distance from the light, with `k = (h - sensor_height) / (light_height - sensor_height)`;
+/// an object at least as tall as the light casts a shadow to the arena's edge. The zone of
+/// each object is its outline plus one quadrilateral per outline edge.
+pub fn occlusion_zones(world: &World, sensor_height: f32) -> Vec<Vec<Vec2>> {
+    let mut out = Vec::new();
+    let Some(gi) = world.goal_light else {
+        return out;
+    };
+    let Some(light) = world.lights.get(gi) else {
+        return out;
+    };
+    let l = light.position;
+    let (_, size) = world.arena;
+    let far = 2.0 * size.length() + 1.0;
+    for (i, o) in world.objects.iter().enumerate() {
+        if o.height <= sensor_height {
+            continue;
+        }
+        // How far (as a multiple of the distance from the light) the shadow reaches.
+        let stretch = if o.height >= light.height || light.height <= sensor_height {
+            None
+        } else {
+            let k = (o.height - sensor_height) / (light.height - sensor_height);
+            Some(1.0 / (1.0 - k).max(1e-3))
+        };
+        let project = |p: Vec2| -> Vec2 {
+            let d = p - l;
+            let len = d.length();
+            if len < 1e-6 {
+                return p;
+            }
+            match stretch {
+                Some(s) => l + d * s.min(far / len).max(1.0),
+                None => l + d * (far / len).max(1.0),
+            }
+        };
+        let pose = world.object_pose(i);
+        for outline in o.outlines() {
+            let pts: Vec<Vec2> = outline
+                .into_iter()
+                .map(|v| pose.world_from_local(v))
+                .collect();
+            if pts.len() < 3 {
+                continue;
+            }
+            out.push(ccw(pts.clone()));
+            for k in 0..pts.len() {
+                let a = pts[k];
+                let b = pts[(k + 1) % pts.len()];
+                out.push(ccw(vec![a, b, project(b), project(a)]));
+            }
+        }
+    }
+    // Keep to the arena.
+    let (c, size) = world.arena;
+    let (lo, hi) = (c - size / 2.0, c + size / 2.0);
+    out.into_iter()
+        .map(|z| clip_to_box(z, lo, hi))
+        .filter(|z| z.len() >= 3)
+        .collect()
+}
+
+/// Sutherland-Hodgman clipping of a polygon to the box `lo`..`hi` (keeps orientation).
+fn clip_to_box(poly: Vec<Vec2>, lo: Vec2, hi: Vec2) -> Vec<Vec2> {
+    // Each edge of the box as (axis, bound, keep-below).
+    let edges = [
+        (0, lo.x, false),
+        (0, hi.x, true),
+        (1, lo.y, false),
+        (1, hi.y, true),
+    ];
+    let mut pts = poly;
+    for (axis, bound, below) in edges {
+        if pts.is_empty() {
+            break;
+        }
+        let coord = |p: Vec2| if axis == 0 { p.x } else { p.y };
+        let inside = |p: Vec2| {
+            if below {
+                coord(p) <= bound
+            } else {
+                coord(p) >= bound
+            }
+        };
+        let mut out = Vec::with_capacity(pts.len() + 2);
+        for k in 0..pts.len() {
+            let cur = pts[k];
+            let prev = pts[(k + pts.len() - 1) % pts.len()];
+            let cross = |a: Vec2, b: Vec2| {
+                let t = (bound - coord(a)) / (coord(b) - coord(a));
+                a + (b - a) * t
+            };
+            match (inside(prev), inside(cur)) {
+                (true, true) => out.push(cur),
+                (true, false) => out.push(cross(prev, cur)),
+                (false, true) => {
+                    out.push(cross(prev, cur));
+                    out.push(cur);
+                }
+                (false, false) => {}
+            }
+        }
+        pts = out;
+    }
+    pts
+}
+
+fn ccw(mut pts: Vec<Vec2>) -> Vec<Vec2> {
+    if formica::geometry::signed_area(&pts) < 0.0 {
+        pts.reverse();
+    }
+    pts
+}
+
+/// Light-sensor height of the first robot group (0 without robots), the height at which
+/// [`occlusion_zones`] is usually asked for.
+pub fn light_sensor_height(world: &World) -> f32 {
+    world.groups.first().map_or(0.0, |g| g.model.light_height)
+}
+
+/// Shades `zones` (from [`occlusion_zones`]) translucent grey onto `pm`.
+pub fn draw_zones(pm: &mut Pixmap, frame: &Frame, zones: &[Vec<Vec2>]) {
+    let mut pb = PathBuilder::new();
+    for z in zones {
+        for (i, p) in z.iter().enumerate() {
+            let (x, y) = frame.px(*p);
+            if i == 0 {
+                pb.move_to(x, y);
+            } else {
+                pb.line_to(x, y);
+            }
+        }
+        pb.close();
+    }
+    if let Some(p) = pb.finish() {
+        let mut paint = Paint::default();
+        paint.set_color_rgba8(60, 60, 90, 60);
+        paint.anti_alias = true;
+        pm.fill_path(&p, &paint, FillRule::Winding, Transform::identity(), None);
+    }
+}
+
+/// Streams frames into an animated GIF (looping forever). Frames are quantised one by one,
+/// so memory stays that of one frame whatever the length; the last frame is held longer.
+pub struct GifWriter<W: std::io::Write> {
+    enc: gif::Encoder<W>,
+    width: u16,
+    height: u16,
+    delay_cs: u16,
+    hold_cs: u16,
+    pending: Option<Vec<u8>>,
+    frames: usize,
+}
+
+impl<W: std::io::Write> GifWriter<W> {
+    /// A writer of `width` x `height` frames shown `delay_cs` hundredths of a second each;
+    /// the last one is shown `hold_cs`.
+    pub fn new(
+        out: W,
+        width: u32,
+        height: u32,
+        delay_cs: u16,
+        hold_cs: u16,
+    ) -> Result<Self, String> {
+        let w = u16::try_from(width).map_err(|_| format!("GIF width {width} exceeds 65535"))?;
+        let h = u16::try_from(height).map_err(|_| format!("GIF height {height} exceeds 65535"))?;
+        let mut enc = gif::Encoder::new(out, w, h, &[]).map_err(|e| format!("GIF: {e}"))?;
+        enc.set_repeat(gif::Repeat::Infinite)
+            .map_err(|e| format!("GIF: {e}"))?;
+        Ok(Self {
+            enc,
+            width: w,
+            height: h,
+            delay_cs,
+            hold_cs,
+            pending: None,
+            frames: 0,
+        })
+    }
+
+    /// Adds one frame; it must be the size given to [`GifWriter::new`].
+    pub fn push(&mut self, pm: &Pixmap) -> Result<(), String> {
+        if pm.width() != u32::from(self.width) || pm.height() != u32::from(self.height) {
+            return Err(format!(
+                "GIF frame is {}x{}, expected {}x{}",
+                pm.width(),
+                pm.height(),
+                self.width,
+                self.height
+            ));
+        }
+        let mut rgba = Vec::with_capacity(pm.data().len());
+        for p in pm.pixels() {
+            let c = p.demultiply();
+            rgba.extend_from_slice(&[c.red(), c.green(), c.blue(), c.alpha()]);
+        }
+        if let Some(prev) = self.pending.replace(rgba) {
+            self.write(prev, self.delay_cs)?;
+        }
+        Ok(())
+    }
+
+    fn write(&mut self, mut rgba: Vec<u8>, delay: u16) -> Result<(), String> {
+        let mut f = gif::Frame::from_rgba_speed(self.width, self.height, &mut rgba, 10);
+        f.delay = delay;
+        self.enc.write_frame(&f).map_err(|e| format!("GIF: {e}"))?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Frames added so far.
+    pub fn frames(&self) -> usize {
+        self.frames + usize::from(self.pending.is_some())
+    }
+
+    /// Writes the last frame and the trailer; returns the output.
+    pub fn finish(mut self) -> Result<W, String> {
+        if let Some(last) = self.pending.take() {
+            let hold = self.hold_cs.max(self.delay_cs);
+            self.write(last, hold)?;
+        }
+        self.enc.into_inner().map_err(|e| format!("GIF: {e}"))
+    }
+}
+
+/// How [`record_gif`] samples a run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordOptions {
+    /// Image width (px); the height follows the arena.
+    pub width_px: u32,
+    /// One frame every this many control ticks (at least 1).
+    pub every_ticks: u64,
+    /// Display time of each frame (1/100 s).
+    pub delay_cs: u16,
+    /// Display time of the last frame (1/100 s).
+    pub hold_cs: u16,
+    /// Shade the zone where the object hides the goal light.
+    pub occlusion: bool,
+    /// Stop after this many frames even if the run goes on.
+    pub max_frames: usize,
+}
+
+impl Default for RecordOptions {
+    fn default() -> Self {
+        Self {
+            width_px: 640,
+            every_ticks: 10,
+            delay_cs: 10,
+            hold_cs: 200,
+            occlusion: false,
+            max_frames: 3000,
+        }
+    }
+}
+
+/// What [`record_gif`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordSummary {
+    /// Frames in the file.
+    pub frames: usize,
+    /// The run's outcome (`None` if `max_frames` cut it short).
+    pub outcome: Option<formica::Outcome>,
+    /// Simulated seconds recorded.
+    pub sim_time_s: f64,
+    /// Control ticks recorded.
+    pub ticks: u64,
+}
+
+/// Steps `run` to its end (or `max_frames`) and streams one frame every `every_ticks` ticks,
+/// plus the first and last, to a GIF written to `out`. Frames show the object's path and the
+/// goal radius, as `formica run --out` pictures do.
+pub fn record_gif<W: std::io::Write>(
+    run: &mut formica::experiment::Run,
+    opts: &RecordOptions,
+    out: W,
+) -> Result<(RecordSummary, W), String> {
+    let frame = Frame::fit(&run.world, opts.width_px);
+    let mut gif = GifWriter::new(
+        out,
+        frame.width_px,
+        frame.height_px,
+        opts.delay_cs,
+        opts.hold_cs,
+    )?;
+    let target = run.world.target;
+    let mut path: Vec<Vec2> = target
+        .map(|t| run.world.object_center(t))
+        .into_iter()
+        .collect();
+    let every = opts.every_ticks.max(1);
+    let max_frames = opts.max_frames.max(1);
+    let draw_now = |run: &formica::experiment::Run, path: &[Vec2]| {
+        let overlay = Overlay {
+            path,
+            goal_radius: run.goal_radius(),
+        };
+        let mut pm = draw(&run.world, &frame, &overlay);
+        if opts.occlusion {
+            let zones = occlusion_zones(&run.world, light_sensor_height(&run.world));
+            draw_zones(&mut pm, &frame, &zones);
+        }
+        pm
+    };
+    gif.push(&draw_now(run, &path))?;
+    let mut outcome = run.outcome();
+    while outcome.is_none() && gif.frames() < max_frames {
+        outcome = run.step();
+        if let Some(t) = target {
+            path.push(run.world.object_center(t));
+        }
+        if outcome.is_some() || run.world.tick.is_multiple_of(every) {
+            gif.push(&draw_now(run, &path))?;
+        }
+    }
+    let summary = RecordSummary {
+        frames: gif.frames(),
+        outcome,
+        sim_time_s: run.world.time_s,
+        ticks: run.world.tick,
+    };
+    let w = gif.finish()?;
+    Ok((summary, w))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use formica::experiment::{Run, RunOptions};
+    use formica::Scenario;
+
+    const SCENE: &str = r#"
+[arena]
+size = [3.0, 2.0]
+[[lights]]
+at = [1.2, 0.0]
+height = 0.5
+[[objects]]
+at = [-0.5, 0.0]
+shape = { box = [0.3, 0.3] }
+height = 0.3
+mass = 5.0
+[[robots]]
+count = 3
+controller = "constant"
+params = { left = 0.1, right = 0.1, led = "red" }
+placement = { poses = [[-1.0, 0.6, 0.0], [-1.0, -0.6, 0.0], [0.5, 0.5, 90.0]] }
+[run]
+duration_s = 2
+"#;
+
+    fn run() -> Run {
+        let sc = Scenario::parse(SCENE, "test.toml").expect("scenario parses");
+        Run::new(&sc, &RunOptions::default()).expect("world builds")
+    }
+
+    #[test]
+    fn gif_has_frames_and_decodes() {
+        let mut r = run();
+        let opts = RecordOptions {
+            width_px: 200,
+            every_ticks: 5,
+            occlusion: true,
+            ..RecordOptions::default()
+        };
+        let (summary, bytes) = record_gif(&mut r, &opts, Vec::new()).expect("records");
+        assert_eq!(summary.outcome, Some(formica::Outcome::Timeout));
+        assert_eq!(summary.ticks, 20);
+        // First frame, one every 5 ticks (4), the last coincides with tick 20.
+        assert_eq!(summary.frames, 5);
+        let mut dec = gif::DecodeOptions::new()
+            .read_info(bytes.as_slice())
+            .expect("valid GIF");
+        let mut n = 0;
+        while dec.read_next_frame().expect("frame decodes").is_some() {
+            n += 1;
+        }
+        assert_eq!(n, 5);
+        assert_eq!(u32::from(dec.width()), 200);
+    }
+
+    #[test]
+    fn max_frames_cuts_a_run_short() {
+        let mut r = run();
+        let opts = RecordOptions {
+            width_px: 100,
+            every_ticks: 1,
+            max_frames: 3,
+            ..RecordOptions::default()
+        };
+        let (summary, _) = record_gif(&mut r, &opts, Vec::new()).expect("records");
+        assert_eq!(summary.frames, 3);
+        assert_eq!(summary.outcome, None);
+    }
+
+    #[test]
+    fn shadow_lies_behind_the_object() {
+        let r = run();
+        let zones = occlusion_zones(&r.world, light_sensor_height(&r.world));
+        assert!(!zones.is_empty());
+        let pts: Vec<Vec2> = zones.iter().flatten().copied().collect();
+        // The light is at x = 1.2, the box at x = -0.5: the shadow reaches further left,
+        // and not right of the box.
+        let min_x = pts.iter().map(|p| p.x).fold(f32::MAX, f32::min);
+        let max_x = pts.iter().map(|p| p.x).fold(f32::MIN, f32::max);
+        assert!(min_x < -0.7, "shadow reaches {min_x}");
+        assert!(max_x <= -0.34, "shadow starts at the box, max x {max_x}");
+        for z in &zones {
+            assert!(formica::geometry::signed_area(z) >= 0.0);
+        }
+        // Clipped to the arena (3 x 2 m around the origin).
+        assert!(pts
+            .iter()
+            .all(|p| p.x.abs() <= 1.5001 && p.y.abs() <= 1.0001));
+        assert!(
+            min_x < -1.49,
+            "the 0.3 m box under a 0.5 m light shades to the wall: {min_x}"
+        );
+    }
+}

@@ -1,0 +1,640 @@
+//! # formica-serve
+//!
+//! A live web viewer for Formica runs. [`Server`] holds one simulation, shared by every
+//! client: a single simulation thread owns it, steps it while it plays, and answers requests
+//! that workers pass it through a bounded queue (a [`formica::experiment::Run`] is not `Send`,
+//! so it stays on the thread that built it; the queue serialises access as a mutex would).
+//! A fixed pool of worker threads speaks HTTP/1.1; nothing is kept per client. Routes:
+//!
+//! | route | what |
+//! |---|---|
+//! | `GET /` (`/index.html`), `/viewer.js`, `/viewer.css` | the page, embedded in the binary |
+//! | `GET /api/scene` | arena, walls, lights, object outlines, robot groups (JSON) |
+//! | `GET /api/state[?rays=1][&zones=1]` | time, outcome, object, path, robots (JSON) |
+//! | `POST /api/play`, `/api/pause`, `/api/step[?n=N]`, `/api/speed?x=F`, `/api/restart[?seed=N]` | control; answer with the state |
+//! | `GET /api/stats` | request counters and buffer sizes of the server itself |
+//!
+//! Nothing else is served: there is no file system behind the routes, so `..` or any other
+//! path is a 404. The server binds 127.0.0.1 unless told otherwise, and when bound to
+//! loopback it only answers requests whose `Host` names loopback (DNS rebinding), and
+//! control requests only from its own origin.
+
+pub mod http;
+pub mod sim;
+
+pub use sim::{Sim, StateQuery, MAX_STEP, PATH_CAP, SPEED_RANGE};
+
+use http::{Method, ReadError, Request, Response};
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+const INDEX_HTML: &str = include_str!("../assets/index.html");
+const VIEWER_JS: &str = include_str!("../assets/viewer.js");
+const VIEWER_CSS: &str = include_str!("../assets/viewer.css");
+
+/// Default port of `formica serve`.
+pub const DEFAULT_PORT: u16 = 8787;
+
+/// How a server is set up.
+#[derive(Debug, Clone)]
+pub struct ServeOptions {
+    /// Address to bind (default 127.0.0.1; anything else must be asked for).
+    pub host: IpAddr,
+    /// Port (0: any free port).
+    pub port: u16,
+    /// Seed of the first run (default: the scenario's).
+    pub seed: Option<u64>,
+    /// Simulated time limit (default: the scenario's).
+    pub duration_s: Option<f32>,
+    /// Worker threads answering requests.
+    pub workers: usize,
+    /// Accepted connections waiting for a worker; beyond that new ones get 503.
+    pub queue: usize,
+    /// How long a worker waits for a request's bytes.
+    pub read_timeout: Duration,
+    /// Start playing at once.
+    pub play: bool,
+}
+
+impl Default for ServeOptions {
+    fn default() -> Self {
+        Self {
+            host: IpAddr::V4(Ipv4Addr::LOCALHOST),
+            port: DEFAULT_PORT,
+            seed: None,
+            duration_s: None,
+            workers: 4,
+            queue: 32,
+            read_timeout: Duration::from_secs(5),
+            play: false,
+        }
+    }
+}
+
+/// Why a server could not start.
+#[derive(Debug)]
+pub enum ServeError {
+    /// The scenario does not build.
+    Scenario(formica::ScenarioError),
+    /// The address could not be bound.
+    Io(std::io::Error),
+}
+
+impl std::fmt::Display for ServeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ServeError::Scenario(e) => write!(f, "{e}"),
+            ServeError::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for ServeError {}
+
+/// Counters of a running server.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Stats {
+    /// Requests answered (including errors).
+    pub requests: u64,
+    /// Connections turned away with 503 because the queue was full.
+    pub rejected: u64,
+    /// Connections accepted and not yet closed (queued or being answered).
+    pub open_connections: usize,
+    /// Most connections that can be open at once (workers + queue).
+    pub max_connections: usize,
+    /// Points of the object's path held.
+    pub path_points: usize,
+    /// Simulations held (always one: clients share it).
+    pub simulations: usize,
+}
+
+/// Counters shared by the threads.
+#[derive(Default)]
+struct Counters {
+    stop: AtomicBool,
+    requests: AtomicU64,
+    rejected: AtomicU64,
+    open: AtomicUsize,
+    path_points: AtomicUsize,
+}
+
+/// A control request.
+#[derive(Debug, Clone, Copy)]
+enum Control {
+    Play,
+    Pause,
+    Step(u64),
+    Speed(f64),
+    Restart(Option<u64>),
+}
+
+/// What workers ask the simulation thread.
+enum Cmd {
+    Scene(SyncSender<String>),
+    State(StateQuery, SyncSender<String>),
+    Control(Control, StateQuery, SyncSender<Result<String, Response>>),
+}
+
+/// Most requests waiting for the simulation thread.
+const SIM_QUEUE: usize = 64;
+/// How long a worker waits for the simulation thread's answer.
+const SIM_WAIT: Duration = Duration::from_secs(30);
+
+struct Shared {
+    counters: Arc<Counters>,
+    cmd: SyncSender<Cmd>,
+    max_connections: usize,
+    loopback: bool,
+    addr: SocketAddr,
+}
+
+/// A bound server, not yet running.
+pub struct Server {
+    listener: TcpListener,
+    shared: Arc<Shared>,
+    opts: ServeOptions,
+    sim_thread: std::thread::JoinHandle<()>,
+}
+
+/// A handle to a running server: its address, counters, and a way to stop it.
+#[derive(Clone)]
+pub struct ServerHandle {
+    shared: Arc<Shared>,
+}
+
+impl ServerHandle {
+    /// The bound address.
+    pub fn addr(&self) -> SocketAddr {
+        self.shared.addr
+    }
+
+    /// Current counters.
+    pub fn stats(&self) -> Stats {
+        stats(&self.shared)
+    }
+
+    /// Asks the server to stop; [`Server::run`] returns soon after.
+    pub fn stop(&self) {
+        self.shared.counters.stop.store(true, Ordering::SeqCst);
+        // Wake the accept loop.
+        let mut a = self.shared.addr;
+        if a.ip().is_unspecified() {
+            a.set_ip(match a.ip() {
+                IpAddr::V4(_) => IpAddr::V4(Ipv4Addr::LOCALHOST),
+                IpAddr::V6(_) => IpAddr::V6(std::net::Ipv6Addr::LOCALHOST),
+            });
+        }
+        let _ = TcpStream::connect_timeout(&a, Duration::from_secs(1));
+    }
+}
+
+fn stats(s: &Shared) -> Stats {
+    let c = &s.counters;
+    Stats {
+        requests: c.requests.load(Ordering::SeqCst),
+        rejected: c.rejected.load(Ordering::SeqCst),
+        open_connections: c.open.load(Ordering::SeqCst),
+        max_connections: s.max_connections,
+        path_points: c.path_points.load(Ordering::SeqCst),
+        simulations: 1,
+    }
+}
+
+impl Server {
+    /// Binds the address and builds the simulation (on its own thread).
+    pub fn bind(scenario: formica::Scenario, opts: ServeOptions) -> Result<Server, ServeError> {
+        let listener =
+            TcpListener::bind(SocketAddr::new(opts.host, opts.port)).map_err(ServeError::Io)?;
+        let addr = listener.local_addr().map_err(ServeError::Io)?;
+        let counters = Arc::new(Counters::default());
+        let (cmd_tx, cmd_rx) = mpsc::sync_channel::<Cmd>(SIM_QUEUE);
+        let (init_tx, init_rx) = mpsc::sync_channel(1);
+        let sim_thread = {
+            let counters = counters.clone();
+            let (seed, duration, play) = (opts.seed, opts.duration_s, opts.play);
+            std::thread::Builder::new()
+                .name("serve-sim".into())
+                .spawn(move || match Sim::new(scenario, seed, duration) {
+                    Ok(mut sim) => {
+                        sim.set_playing(play);
+                        let _ = init_tx.send(Ok(()));
+                        sim_loop(sim, &cmd_rx, &counters);
+                    }
+                    Err(e) => {
+                        let _ = init_tx.send(Err(e));
+                    }
+                })
+                .map_err(ServeError::Io)?
+        };
+        match init_rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                let _ = sim_thread.join();
+                return Err(ServeError::Scenario(e));
+            }
+            Err(_) => {
+                let _ = sim_thread.join();
+                return Err(ServeError::Io(std::io::Error::other(
+                    "the simulation thread stopped while building the world",
+                )));
+            }
+        }
+        let workers = opts.workers.max(1);
+        let queue = opts.queue.max(1);
+        let shared = Arc::new(Shared {
+            counters,
+            cmd: cmd_tx,
+            max_connections: workers + queue,
+            loopback: addr.ip().is_loopback(),
+            addr,
+        });
+        Ok(Server {
+            listener,
+            shared,
+            opts,
+            sim_thread,
+        })
+    }
+
+    /// The bound address.
+    pub fn local_addr(&self) -> SocketAddr {
+        self.shared.addr
+    }
+
+    /// A handle for stopping the server and reading its counters.
+    pub fn handle(&self) -> ServerHandle {
+        ServerHandle {
+            shared: self.shared.clone(),
+        }
+    }
+
+    /// Serves until [`ServerHandle::stop`]: a fixed pool of workers answers requests and this
+    /// thread accepts connections, turning them away with 503 when the queue is full.
+    pub fn run(self) -> std::io::Result<()> {
+        let Server {
+            listener,
+            shared,
+            opts,
+            sim_thread,
+        } = self;
+        let (tx, rx): (SyncSender<TcpStream>, Receiver<TcpStream>) =
+            mpsc::sync_channel(opts.queue.max(1));
+        let rx = Arc::new(Mutex::new(rx));
+        let mut threads = Vec::new();
+        for k in 0..opts.workers.max(1) {
+            let rx = rx.clone();
+            let mine = shared.clone();
+            let timeout = opts.read_timeout;
+            let t = std::thread::Builder::new()
+                .name(format!("serve-worker-{k}"))
+                .spawn(move || worker(&mine, &rx, timeout));
+            match t {
+                Ok(t) => threads.push(t),
+                Err(e) => {
+                    shared.counters.stop.store(true, Ordering::SeqCst);
+                    return Err(e);
+                }
+            }
+        }
+        let counters = &shared.counters;
+        for conn in listener.incoming() {
+            if counters.stop.load(Ordering::SeqCst) {
+                break;
+            }
+            let Ok(stream) = conn else { continue };
+            counters.open.fetch_add(1, Ordering::SeqCst);
+            match tx.try_send(stream) {
+                Ok(()) => {}
+                Err(TrySendError::Full(mut s)) | Err(TrySendError::Disconnected(mut s)) => {
+                    counters.rejected.fetch_add(1, Ordering::SeqCst);
+                    // Take in what the client has sent already (briefly), so that closing
+                    // does not reset the connection before it reads the answer.
+                    let _ = s.set_read_timeout(Some(Duration::from_millis(20)));
+                    let _ = s.set_write_timeout(Some(Duration::from_millis(200)));
+                    let mut sink = [0u8; 4096];
+                    let _ = std::io::Read::read(&mut s, &mut sink);
+                    let _ = http::write_response(
+                        &mut s,
+                        &Response::error(503, "server busy, try again")
+                            .with_header("Retry-After", "1"),
+                        false,
+                    );
+                    let _ = s.shutdown(std::net::Shutdown::Write);
+                    counters.open.fetch_sub(1, Ordering::SeqCst);
+                }
+            }
+        }
+        counters.stop.store(true, Ordering::SeqCst);
+        drop(tx);
+        for t in threads {
+            let _ = t.join();
+        }
+        drop(shared);
+        let _ = sim_thread.join();
+        Ok(())
+    }
+}
+
+/// The simulation thread: answers commands, and between them steps the world while it plays.
+fn sim_loop(mut sim: Sim, rx: &Receiver<Cmd>, counters: &Counters) {
+    let mut last = Instant::now();
+    counters
+        .path_points
+        .store(sim.path_points(), Ordering::SeqCst);
+    while !counters.stop.load(Ordering::SeqCst) {
+        match rx.recv_timeout(Duration::from_millis(15)) {
+            Ok(Cmd::Scene(reply)) => {
+                let _ = reply.try_send(sim.scene_json().to_string());
+            }
+            Ok(Cmd::State(q, reply)) => {
+                let _ = reply.try_send(sim.state_json(q));
+            }
+            Ok(Cmd::Control(c, q, reply)) => {
+                let r = control(&mut sim, c).map(|()| sim.state_json(q));
+                let _ = reply.try_send(r);
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => return,
+        }
+        let now = Instant::now();
+        let dt = (now - last).as_secs_f64().min(0.25);
+        last = now;
+        sim.advance(dt, Duration::from_millis(40));
+        counters
+            .path_points
+            .store(sim.path_points(), Ordering::SeqCst);
+    }
+}
+
+fn control(sim: &mut Sim, c: Control) -> Result<(), Response> {
+    match c {
+        Control::Play => sim.set_playing(true),
+        Control::Pause => sim.set_playing(false),
+        Control::Step(n) => {
+            sim.set_playing(false);
+            sim.step(n);
+        }
+        Control::Speed(x) => sim
+            .set_speed(x)
+            .map_err(|m| Response::error(400, &format!("x: {m}")))?,
+        Control::Restart(seed) => sim
+            .restart(seed)
+            .map_err(|e| Response::error(422, &e.to_string()))?,
+    }
+    Ok(())
+}
+
+/// Sends a command to the simulation thread and waits for its answer.
+fn ask<T>(shared: &Shared, make: impl FnOnce(SyncSender<T>) -> Cmd) -> Result<T, Response> {
+    let (tx, rx) = mpsc::sync_channel(1);
+    let busy = || {
+        Response::error(503, "the simulation is busy, try again").with_header("Retry-After", "1")
+    };
+    shared.cmd.try_send(make(tx)).map_err(|_| busy())?;
+    rx.recv_timeout(SIM_WAIT).map_err(|_| busy())
+}
+
+fn worker(shared: &Shared, rx: &Mutex<Receiver<TcpStream>>, timeout: Duration) {
+    let counters = &shared.counters;
+    loop {
+        let next = rx.lock().unwrap_or_else(|e| e.into_inner()).recv();
+        let Ok(mut stream) = next else { return };
+        let _ = stream.set_read_timeout(Some(timeout));
+        let _ = stream.set_write_timeout(Some(timeout));
+        let _ = stream.set_nodelay(true);
+        match http::read_request(&mut stream) {
+            Ok(req) => {
+                let resp = respond(shared, &req);
+                let _ = http::write_response(&mut stream, &resp, req.method == Method::Head);
+                counters.requests.fetch_add(1, Ordering::SeqCst);
+            }
+            Err(ReadError::Bad(resp)) => {
+                let _ = http::write_response(&mut stream, &resp, false);
+                counters.requests.fetch_add(1, Ordering::SeqCst);
+            }
+            Err(ReadError::Gone) => {}
+        }
+        let _ = stream.shutdown(std::net::Shutdown::Write);
+        drop(stream);
+        counters.open.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+/// Whether a `Host` or `Origin` authority names this machine's loopback.
+fn is_loopback_authority(a: &str) -> bool {
+    let host = if let Some(rest) = a.strip_prefix('[') {
+        rest.split(']').next().unwrap_or_default()
+    } else {
+        a.rsplit_once(':').map_or(a, |(h, _)| h)
+    };
+    host.eq_ignore_ascii_case("localhost")
+        || host.parse::<IpAddr>().is_ok_and(|ip| ip.is_loopback())
+}
+
+fn flag(v: &str) -> Result<bool, String> {
+    match v {
+        "1" | "true" | "" => Ok(true),
+        "0" | "false" => Ok(false),
+        _ => Err(format!("expected 0 or 1, got `{v}`")),
+    }
+}
+
+/// Checks that every query key is one of `allowed`.
+fn only(req: &Request, allowed: &[&str]) -> Result<(), Response> {
+    for (k, _) in &req.query {
+        if !allowed.contains(&k.as_str()) {
+            return Err(Response::error(
+                400,
+                &format!(
+                    "unknown parameter `{k}` for {}; expected {}",
+                    req.path,
+                    if allowed.is_empty() {
+                        "none".to_string()
+                    } else {
+                        allowed.join(", ")
+                    }
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn param<'a>(req: &'a Request, key: &str) -> Option<&'a str> {
+    req.query
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.as_str())
+}
+
+const JSON: &str = "application/json";
+
+fn respond(shared: &Shared, req: &Request) -> Response {
+    if shared.loopback {
+        // DNS rebinding: a page elsewhere must not reach this server through a name of its
+        // own that resolves to 127.0.0.1.
+        if let Some(h) = &req.host {
+            if !is_loopback_authority(h) {
+                return Response::error(421, "this server only answers to a loopback Host");
+            }
+        }
+    }
+    let get = matches!(req.method, Method::Get | Method::Head);
+    let static_asset = |body: &'static str, ctype: &'static str| -> Response {
+        if !get {
+            return Response::error(405, "use GET").with_header("Allow", "GET, HEAD");
+        }
+        if !req.query.is_empty() {
+            return Response::error(400, "static files take no parameters");
+        }
+        Response::ok(ctype, body)
+    };
+    match req.path.as_str() {
+        "/" | "/index.html" => static_asset(INDEX_HTML, "text/html; charset=utf-8"),
+        "/viewer.js" => static_asset(VIEWER_JS, "text/javascript; charset=utf-8"),
+        "/viewer.css" => static_asset(VIEWER_CSS, "text/css; charset=utf-8"),
+        "/api/scene" | "/api/state" | "/api/stats" => {
+            if !get {
+                return Response::error(405, "use GET").with_header("Allow", "GET, HEAD");
+            }
+            api_get(shared, req).unwrap_or_else(|e| e)
+        }
+        "/api/play" | "/api/pause" | "/api/step" | "/api/speed" | "/api/restart" => {
+            if req.method != Method::Post {
+                return Response::error(405, "use POST").with_header("Allow", "POST");
+            }
+            if let Some(o) = &req.origin {
+                let authority = o
+                    .strip_prefix("http://")
+                    .filter(|a| !a.contains('/'))
+                    .unwrap_or("");
+                let same = req
+                    .host
+                    .as_deref()
+                    .is_some_and(|h| h.eq_ignore_ascii_case(authority));
+                if !same {
+                    return Response::error(403, "control requests must come from this page");
+                }
+            }
+            api_post(shared, req).unwrap_or_else(|e| e)
+        }
+        _ => Response::error(404, "not found"),
+    }
+}
+
+fn api_get(shared: &Shared, req: &Request) -> Result<Response, Response> {
+    match req.path.as_str() {
+        "/api/scene" => {
+            only(req, &[])?;
+            Ok(Response::ok(JSON, ask(shared, Cmd::Scene)?))
+        }
+        "/api/stats" => {
+            only(req, &[])?;
+            let s = stats(shared);
+            let body = serde_json::json!({
+                "requests": s.requests,
+                "rejected": s.rejected,
+                "open_connections": s.open_connections,
+                "max_connections": s.max_connections,
+                "path_points": s.path_points,
+                "path_cap": PATH_CAP,
+                "simulations": s.simulations,
+            });
+            Ok(Response::ok(JSON, body.to_string()))
+        }
+        _ => {
+            only(req, &["rays", "zones"])?;
+            let q = state_query(req)?;
+            Ok(Response::ok(JSON, ask(shared, |tx| Cmd::State(q, tx))?))
+        }
+    }
+}
+
+fn state_query(req: &Request) -> Result<StateQuery, Response> {
+    let get = |k: &str| -> Result<bool, Response> {
+        param(req, k)
+            .map_or(Ok(false), flag)
+            .map_err(|m| Response::error(400, &format!("{k}: {m}")))
+    };
+    Ok(StateQuery {
+        rays: get("rays")?,
+        zones: get("zones")?,
+    })
+}
+
+fn api_post(shared: &Shared, req: &Request) -> Result<Response, Response> {
+    let extra: &[&str] = match req.path.as_str() {
+        "/api/step" => &["n", "rays", "zones"],
+        "/api/speed" => &["x", "rays", "zones"],
+        "/api/restart" => &["seed", "rays", "zones"],
+        _ => &["rays", "zones"],
+    };
+    only(req, extra)?;
+    let q = state_query(req)?;
+    let c = match req.path.as_str() {
+        "/api/play" => Control::Play,
+        "/api/pause" => Control::Pause,
+        "/api/step" => Control::Step(match param(req, "n") {
+            None => 1,
+            Some(v) => v
+                .parse::<u64>()
+                .ok()
+                .filter(|n| (1..=MAX_STEP).contains(n))
+                .ok_or_else(|| {
+                    Response::error(400, &format!("n: expected 1 to {MAX_STEP}, got `{v}`"))
+                })?,
+        }),
+        "/api/speed" => {
+            let v = param(req, "x").ok_or_else(|| Response::error(400, "x: missing"))?;
+            let x: f64 = v
+                .parse()
+                .map_err(|_| Response::error(400, &format!("x: expected a number, got `{v}`")))?;
+            let (lo, hi) = SPEED_RANGE;
+            if !(x >= lo && x <= hi) {
+                return Err(Response::error(
+                    400,
+                    &format!("x: speed must be between {lo} and {hi}, got {v}"),
+                ));
+            }
+            Control::Speed(x)
+        }
+        _ => Control::Restart(match param(req, "seed") {
+            None | Some("") => None,
+            Some(v) => Some(v.parse::<u64>().map_err(|_| {
+                Response::error(400, &format!("seed: expected a whole number, got `{v}`"))
+            })?),
+        }),
+    };
+    let body = ask(shared, |tx| Cmd::Control(c, q, tx))??;
+    Ok(Response::ok(JSON, body))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loopback_authorities() {
+        for ok in [
+            "127.0.0.1:80",
+            "localhost",
+            "LOCALHOST:1",
+            "[::1]:8",
+            "127.1.2.3",
+        ] {
+            assert!(is_loopback_authority(ok), "{ok}");
+        }
+        for bad in [
+            "evil.example:80",
+            "10.0.0.1",
+            "[::2]:8",
+            "",
+            "localhost.evil",
+        ] {
+            assert!(!is_loopback_authority(bad), "{bad}");
+        }
+    }
+}

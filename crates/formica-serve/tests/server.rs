@@ -1,0 +1,437 @@
+//! The server over real loopback sockets: where it binds, what it serves, how it answers bad
+//! requests, and that its memory does not grow with clients.
+
+use formica::Scenario;
+use formica_serve::{ServeOptions, Server, ServerHandle, MAX_STEP, PATH_CAP};
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::time::{Duration, Instant};
+
+/// A small world: three robots drive straight into a light box, so the object moves.
+const SMALL: &str = r#"
+name = "small"
+[arena]
+size = [4.0, 2.0]
+[[lights]]
+at = [1.8, 0.0]
+height = 0.5
+[[objects]]
+name = "box"
+at = [-0.6, 0.0]
+shape = { box = [0.3, 0.3] }
+height = 0.2
+mass = 0.5
+floor_mu = 0.01
+[[robots]]
+count = 3
+controller = "constant"
+params = { left = 0.1, right = 0.1, led = "red" }
+placement = { poses = [[-1.2, 0.0, 0.0], [-1.2, 0.15, 0.0], [-1.2, -0.15, 0.0]] }
+[run]
+duration_s = 100000
+[stop]
+on_goal = false
+on_wall = false
+"#;
+
+struct Running {
+    handle: ServerHandle,
+    thread: Option<std::thread::JoinHandle<std::io::Result<()>>>,
+}
+
+impl Running {
+    fn addr(&self) -> SocketAddr {
+        self.handle.addr()
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.handle.stop();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn small() -> Scenario {
+    Scenario::parse(SMALL, "small.toml").expect("test scenario parses")
+}
+
+fn seed_transport() -> Scenario {
+    let p = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/seed-transport.toml"
+    );
+    Scenario::load(p.as_ref()).expect("seed scenario loads")
+}
+
+fn start_with(sc: Scenario, f: impl FnOnce(&mut ServeOptions)) -> Running {
+    let mut opts = ServeOptions {
+        port: 0,
+        read_timeout: Duration::from_millis(500),
+        ..ServeOptions::default()
+    };
+    f(&mut opts);
+    let server = Server::bind(sc, opts).expect("server binds");
+    let handle = server.handle();
+    let thread = std::thread::spawn(move || server.run());
+    Running {
+        handle,
+        thread: Some(thread),
+    }
+}
+
+fn start(sc: Scenario) -> Running {
+    start_with(sc, |_| {})
+}
+
+/// Sends raw bytes, returns the status code and the body.
+fn raw(addr: SocketAddr, bytes: &[u8]) -> (u16, String) {
+    let mut s = TcpStream::connect_timeout(&addr, Duration::from_secs(5)).expect("connects");
+    s.set_read_timeout(Some(Duration::from_secs(10)))
+        .expect("timeout");
+    let _ = s.write_all(bytes);
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out).to_string();
+    let status = text
+        .split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = text
+        .split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_string())
+        .unwrap_or_default();
+    (status, body)
+}
+
+fn req(addr: SocketAddr, method: &str, target: &str) -> (u16, String) {
+    raw(
+        addr,
+        format!(
+            "{method} {target} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n",
+            addr.port()
+        )
+        .as_bytes(),
+    )
+}
+
+fn json(body: &str) -> serde_json::Value {
+    serde_json::from_str(body).unwrap_or_else(|e| panic!("not JSON ({e}): {body}"))
+}
+
+#[test]
+fn binds_loopback_unless_asked() {
+    assert!(ServeOptions::default().host.is_loopback());
+    let r = start(small());
+    assert!(r.addr().ip().is_loopback(), "bound {}", r.addr());
+    let (code, body) = req(r.addr(), "GET", "/");
+    assert_eq!(code, 200);
+    assert!(body.contains("<canvas"));
+    // A page elsewhere reaching us through a name of its own (DNS rebinding) is refused.
+    let (code, _) = raw(
+        r.addr(),
+        b"GET /api/state HTTP/1.1\r\nHost: evil.example:8787\r\n\r\n",
+    );
+    assert_eq!(code, 421);
+    // Control requests only from our own origin.
+    let port = r.addr().port();
+    let cross = format!(
+        "POST /api/play HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nOrigin: http://evil.example\r\nContent-Length: 0\r\n\r\n"
+    );
+    assert_eq!(raw(r.addr(), cross.as_bytes()).0, 403);
+    let same = format!(
+        "POST /api/pause HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nOrigin: http://127.0.0.1:{port}\r\nContent-Length: 0\r\n\r\n"
+    );
+    assert_eq!(raw(r.addr(), same.as_bytes()).0, 200);
+}
+
+#[test]
+fn serves_only_its_own_assets() {
+    let r = start(small());
+    let a = r.addr();
+    for (path, kind) in [
+        ("/", "<canvas"),
+        ("/index.html", "<canvas"),
+        ("/viewer.js", "formicaViewer"),
+        ("/viewer.css", "#view"),
+    ] {
+        let (code, body) = req(a, "GET", path);
+        assert_eq!(code, 200, "{path}");
+        assert!(body.contains(kind), "{path}");
+    }
+    // The page loads nothing from elsewhere.
+    let (_, html) = req(a, "GET", "/");
+    let (_, js) = req(a, "GET", "/viewer.js");
+    for text in [&html, &js] {
+        assert!(!text.contains("http://") && !text.contains("https://"));
+    }
+    for path in [
+        "/..",
+        "/../Cargo.toml",
+        "/../../Cargo.toml",
+        "/%2e%2e/Cargo.toml",
+        "/%2E%2E%2FCargo.toml",
+        "/viewer.js/../../../Cargo.toml",
+        "/..%2f..%2fetc/passwd",
+        "//etc/passwd",
+        "/assets/index.html",
+        "/src/lib.rs",
+        "/Cargo.toml",
+        "/.git/config",
+        "/api",
+        "/api/",
+        "/api/state/",
+        "/favicon.ico",
+    ] {
+        let (code, body) = req(a, "GET", path);
+        assert_eq!(code, 404, "{path}: {body}");
+        assert!(!body.contains("[package]") && !body.contains("[workspace]"));
+    }
+}
+
+#[test]
+fn bad_requests_get_errors_never_a_crash() {
+    let r = start(small());
+    let a = r.addr();
+    let cases: Vec<(Vec<u8>, u16)> = vec![
+        (b"garbage\r\n\r\n".to_vec(), 400),
+        (b"GET /\r\n\r\n".to_vec(), 400),
+        (b"GET / HTTP/9.9\r\n\r\n".to_vec(), 505),
+        (b"DELETE / HTTP/1.1\r\n\r\n".to_vec(), 501),
+        (b"GET / HTTP/1.1\r\nbroken header\r\n\r\n".to_vec(), 400),
+        (vec![0xff, 0xfe, 0x00, b'\r', b'\n', b'\r', b'\n'], 400),
+        (
+            format!("GET /{} HTTP/1.1\r\n\r\n", "a".repeat(20_000)).into_bytes(),
+            431,
+        ),
+        (
+            b"POST /api/step HTTP/1.1\r\nContent-Length: 100000\r\n\r\n".to_vec(),
+            413,
+        ),
+        (
+            b"POST /api/step HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n".to_vec(),
+            501,
+        ),
+        (b"GET /?x=%zz HTTP/1.1\r\n\r\n".to_vec(), 400),
+        (
+            b"GET /api/state HTTP/1.1\r\nHost: a\r\nHost: b\r\n\r\n".to_vec(),
+            400,
+        ),
+        // Half a request, then the client goes quiet: a timeout, answered.
+        (b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n".to_vec(), 408),
+    ];
+    for (bytes, want) in &cases {
+        let (code, body) = raw(a, bytes);
+        assert_eq!(
+            code,
+            *want,
+            "{:?}: {body}",
+            String::from_utf8_lossy(&bytes[..bytes.len().min(40)])
+        );
+        if *want != 0 {
+            assert!(json(&body)["error"].is_string());
+        }
+    }
+    for (method, target, want) in [
+        ("POST", "/", 405),
+        ("POST", "/api/state", 405),
+        ("GET", "/api/step", 405),
+        ("GET", "/api/restart", 405),
+        ("GET", "/?a=1", 400),
+        ("GET", "/api/state?rays=maybe", 400),
+        ("GET", "/api/state?bogus=1", 400),
+        ("POST", "/api/step?n=0", 400),
+        ("POST", "/api/step?n=-3", 400),
+        ("POST", "/api/step?n=99999999999999999999999", 400),
+        ("POST", "/api/speed", 400),
+        ("POST", "/api/speed?x=fast", 400),
+        ("POST", "/api/speed?x=NaN", 400),
+        ("POST", "/api/speed?x=1e9", 400),
+        ("POST", "/api/restart?seed=-1", 400),
+        ("POST", "/api/restart?seed=abc", 400),
+    ] {
+        let (code, body) = req(a, method, target);
+        assert_eq!(code, want, "{method} {target}: {body}");
+        assert!(json(&body)["error"].is_string(), "{method} {target}");
+    }
+    // A client that connects and leaves without a word gets nothing and costs nothing.
+    for _ in 0..5 {
+        drop(TcpStream::connect(a).expect("connects"));
+    }
+    // Still serving, and the simulation is intact.
+    let (code, body) = req(a, "GET", "/api/state");
+    assert_eq!(code, 200);
+    assert_eq!(json(&body)["tick"], 0);
+}
+
+#[test]
+fn controls_step_restart_and_play() {
+    let r = start(seed_transport());
+    let a = r.addr();
+    let s0 = json(&req(a, "GET", "/api/state").1);
+    assert_eq!(s0["tick"], 0);
+    assert_eq!(s0["robots"].as_array().map(Vec::len), Some(20));
+    assert_eq!(s0["playing"], false);
+    let scene = json(&req(a, "GET", "/api/scene").1);
+    assert_eq!(scene["scenario"], "seed-transport");
+    assert!(scene["walls"].as_array().is_some_and(|w| w.len() >= 4));
+
+    let (code, body) = req(a, "POST", "/api/step?n=5&rays=1&zones=1");
+    assert_eq!(code, 200, "{body}");
+    let s1 = json(&body);
+    assert_eq!(s1["tick"], 5);
+    assert_ne!(s0["robots"], s1["robots"], "robots moved");
+    assert!(s1["zones"].as_array().is_some_and(|z| !z.is_empty()));
+    assert_eq!(s1["robots"][0]["rays"].as_array().map(Vec::len), Some(8));
+    assert!(s1["robots"][0]["sees_goal"].is_boolean());
+
+    let (code, body) = req(a, "POST", "/api/restart?seed=7");
+    assert_eq!(code, 200, "{body}");
+    let s2 = json(&body);
+    assert_eq!(
+        (s2["seed"].as_u64(), s2["tick"].as_u64()),
+        (Some(7), Some(0))
+    );
+    assert_eq!(s2["generation"], s0["generation"].as_u64().unwrap_or(0) + 1);
+    assert_ne!(
+        s2["robots"][0]["x"], s0["robots"][0]["x"],
+        "a new seed places robots anew"
+    );
+    let scene2 = json(&req(a, "GET", "/api/scene").1);
+    assert_eq!(scene2["seed"], 7);
+
+    assert_eq!(req(a, "POST", "/api/speed?x=8").0, 200);
+    assert_eq!(req(a, "POST", "/api/play").0, 200);
+    let t0 = Instant::now();
+    let mut tick = 0;
+    while t0.elapsed() < Duration::from_secs(20) && tick < 10 {
+        std::thread::sleep(Duration::from_millis(100));
+        tick = json(&req(a, "GET", "/api/state").1)["tick"]
+            .as_u64()
+            .unwrap_or(0);
+    }
+    assert!(tick >= 10, "playing advances the clock (tick {tick})");
+    let paused = json(&req(a, "POST", "/api/pause").1);
+    assert_eq!(paused["playing"], false);
+    let t = paused["tick"].clone();
+    std::thread::sleep(Duration::from_millis(200));
+    assert_eq!(
+        json(&req(a, "GET", "/api/state").1)["tick"],
+        t,
+        "paused stays put"
+    );
+}
+
+fn rss_kib() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+fn many_clients(a: SocketAddr, clients: usize, each: usize) {
+    let threads: Vec<_> = (0..clients)
+        .map(|c| {
+            std::thread::spawn(move || {
+                for k in 0..each {
+                    let target = match (c + k) % 5 {
+                        0 => "/api/state?rays=1&zones=1",
+                        1 => "/api/scene",
+                        2 => "/",
+                        3 => "/viewer.js",
+                        _ => "/api/state",
+                    };
+                    let (code, _) = req(a, "GET", target);
+                    assert!(code == 200 || code == 503, "{target}: {code}");
+                }
+                // Some clients leave half-way through a request.
+                if let Ok(mut s) = TcpStream::connect(a) {
+                    let _ = s.write_all(b"GET /api/sta");
+                }
+            })
+        })
+        .collect();
+    for t in threads {
+        t.join().expect("client thread");
+    }
+}
+
+#[test]
+fn memory_stays_bounded_with_many_clients() {
+    let r = start(small());
+    let a = r.addr();
+    // The path is thinned, never longer than its cap, however long the run.
+    for _ in 0..3 {
+        let (code, _) = req(a, "POST", &format!("/api/step?n={MAX_STEP}"));
+        assert_eq!(code, 200);
+    }
+    let st = r.handle.stats();
+    assert!(st.path_points <= PATH_CAP, "{} path points", st.path_points);
+    let path_len = json(&req(a, "GET", "/api/state").1)["path"]
+        .as_array()
+        .map_or(0, Vec::len);
+    assert!(
+        path_len <= PATH_CAP + 1,
+        "path of {path_len} points in the state"
+    );
+
+    let state_before = req(a, "GET", "/api/state").1;
+    // A first round warms up allocator arenas for as many client threads as the second.
+    many_clients(a, 16, 15);
+    let rss0 = rss_kib();
+    many_clients(a, 16, 60);
+    let rss1 = rss_kib();
+
+    // Every connection is closed again; nothing is kept per client.
+    let t0 = Instant::now();
+    while r.handle.stats().open_connections > 0 && t0.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let st = r.handle.stats();
+    assert_eq!(st.open_connections, 0);
+    assert_eq!(st.simulations, 1);
+    assert!(st.requests >= 16 * 15 + 16 * 60, "{} requests", st.requests);
+    // What a client reads does not depend on how many came before it.
+    assert_eq!(req(a, "GET", "/api/state").1, state_before);
+    let stats = json(&req(a, "GET", "/api/stats").1);
+    assert_eq!(stats["simulations"], 1);
+    assert!(stats["max_connections"].as_u64().is_some_and(|m| m <= 64));
+    if let (Some(r0), Some(r1)) = (rss0, rss1) {
+        // 960 more requests; a per-request leak of even 10 KiB would show.
+        assert!(r1 < r0 + 8 * 1024, "RSS grew from {r0} KiB to {r1} KiB");
+    }
+}
+
+#[test]
+fn a_full_queue_answers_busy_and_recovers() {
+    let r = start_with(small(), |o| {
+        o.workers = 1;
+        o.queue = 1;
+        o.read_timeout = Duration::from_millis(800);
+    });
+    let a = r.addr();
+    // Silent clients occupy the one worker and then the one queue slot.
+    let mut idle = Vec::new();
+    for _ in 0..2 {
+        idle.push(TcpStream::connect(a).expect("connects"));
+        std::thread::sleep(Duration::from_millis(150));
+    }
+    let codes: Vec<u16> = (0..2).map(|_| req(a, "GET", "/api/state").0).collect();
+    assert!(
+        codes.contains(&503),
+        "a full queue turns clients away: {codes:?}"
+    );
+    drop(idle);
+    let t0 = Instant::now();
+    let mut ok = false;
+    while !ok && t0.elapsed() < Duration::from_secs(10) {
+        ok = req(a, "GET", "/api/state").0 == 200;
+        if !ok {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+    assert!(ok, "serves again once the idle clients are gone");
+    assert!(r.handle.stats().rejected >= 1);
+}

@@ -1,0 +1,158 @@
+// End-to-end test of `formica serve` in headless Chromium (Debian's, driven by playwright-core).
+// Run by e2e/run.sh, which starts the server and passes its address in FORMICA_URL.
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { mkdtempSync, mkdirSync, rmSync, statSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, dirname } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const BASE = (process.env.FORMICA_URL || '').replace(/\/$/, '');
+const OUT = process.env.E2E_OUT || join(dirname(fileURLToPath(import.meta.url)), 'out');
+const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+
+let context;
+let page;
+let profile;
+const problems = [];
+const foreign = [];
+
+before(async () => {
+  assert.ok(BASE.startsWith('http://127.0.0.1:'), 'FORMICA_URL must name the loopback server');
+  profile = mkdtempSync(join(tmpdir(), 'formica-e2e-profile-'));
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport: { width: 1280, height: 860 },
+    args: [
+      '--no-sandbox',
+      '--disable-gpu',
+      '--disable-background-networking',
+      '--disable-component-update',
+      '--no-first-run',
+      '--disable-quic',
+      '--disable-sync',
+    ],
+  });
+  page = context.pages()[0] || (await context.newPage());
+  page.on('console', (m) => { if (m.type() === 'error') problems.push('console: ' + m.text()); });
+  page.on('pageerror', (e) => problems.push('page error: ' + e.message));
+  page.on('request', (r) => { if (!r.url().startsWith(BASE + '/') && !r.url().startsWith('data:')) foreign.push(r.url()); });
+});
+
+after(async () => {
+  if (context) await context.close();
+  if (profile) rmSync(profile, { recursive: true, force: true });
+});
+
+const tickShown = () => page.locator('#s-tick').textContent();
+
+// Waits until the viewer shows a tick equal to (`eq`) or at least (`ge`) `n`.
+async function waitTick(op, n, what) {
+  await page.waitForFunction(
+    ([op, n]) => {
+      const v = window.formicaViewer;
+      if (!v || !v.state) return false;
+      return op === 'eq' ? v.state.tick === n : v.state.tick >= n;
+    },
+    [op, n],
+    { timeout: 15000 },
+  ).catch((e) => { throw new Error('timed out waiting for ' + what + ': ' + e.message); });
+}
+
+test('the page loads offline and draws the robots', async () => {
+  const resp = await page.goto(BASE + '/');
+  assert.equal(resp.status(), 200);
+  await page.waitForFunction(() => window.formicaViewer && window.formicaViewer.frames > 0, null, { timeout: 15000 });
+  assert.equal(await page.locator('#scenario-name').textContent(), 'seed-transport');
+
+  // DOM: the canvas says how many robots it drew, and the panel lists them.
+  const drawn = Number(await page.locator('#view').getAttribute('data-robots-drawn'));
+  assert.equal(drawn, 20);
+  assert.equal(await page.locator('#robots tbody tr').count(), 20);
+
+  // Pixels: every robot's centre is painted, not background.
+  const painted = await page.evaluate(() => {
+    const v = window.formicaViewer;
+    const ctx = document.getElementById('view').getContext('2d');
+    return v.state.robots.map((r) => {
+      const [x, y] = v.toPixel(r.x, r.y);
+      const d = ctx.getImageData(Math.round(x), Math.round(y), 1, 1).data;
+      return !(d[0] === 250 && d[1] === 250 && d[2] === 247);
+    });
+  });
+  assert.equal(painted.length, 20);
+  assert.ok(painted.every(Boolean), 'some robot centre is background: ' + JSON.stringify(painted));
+  // The goal light is drawn too.
+  const goalPainted = await page.evaluate(() => {
+    const v = window.formicaViewer;
+    const g = v.scene.lights.find((l) => l.goal);
+    const [x, y] = v.toPixel(g.at[0], g.at[1]);
+    const d = document.getElementById('view').getContext('2d').getImageData(Math.round(x), Math.round(y), 1, 1).data;
+    return [d[0], d[1], d[2]];
+  });
+  assert.deepEqual(goalPainted, [250, 200, 0]);
+});
+
+test('stepping advances the simulation and changes what is shown', async () => {
+  if ((await page.locator('#play').textContent()) === 'Pause') await page.click('#play');
+  const t0 = Number(await tickShown());
+  const before = await page.evaluate(() => window.formicaViewer.state.robots.map((r) => [r.x, r.y, r.theta]));
+  const pixelsBefore = await page.evaluate(() => document.getElementById('view').toDataURL());
+  for (let k = 1; k <= 5; k++) {
+    await page.click('#step');
+    await waitTick('eq', t0 + k, `tick ${t0 + k}`);
+  }
+  assert.equal(Number(await tickShown()), t0 + 5);
+  assert.match(await page.locator('#s-time').textContent(), /^0\.5 s of \d+ s$/);
+  const after = await page.evaluate(() => window.formicaViewer.state.robots.map((r) => [r.x, r.y, r.theta]));
+  const moved = after.filter((p, i) => Math.hypot(p[0] - before[i][0], p[1] - before[i][1]) > 1e-4).length;
+  assert.ok(moved >= 10, `only ${moved} of 20 robots moved in 5 ticks`);
+  const pixelsAfter = await page.evaluate(() => document.getElementById('view').toDataURL());
+  assert.notEqual(pixelsAfter, pixelsBefore, 'the canvas changed');
+  // Robot states from the controllers are listed.
+  const states = await page.locator('#robots tbody tr td:nth-child(2)').allTextContents();
+  assert.equal(states.length, 20);
+  assert.ok(states.every((s) => s.length > 0 && s !== 'waiting'), JSON.stringify(states));
+  assert.equal(await page.locator('#s-outcome').textContent(), 'paused');
+});
+
+test('rays, occluded zone, play and restart with a new seed', async () => {
+  await page.check('#show-rays');
+  await page.waitForFunction(() => {
+    const s = window.formicaViewer.state;
+    return s.robots.every((r) => Array.isArray(r.rays)) && Array.isArray(s.zones) && s.zones.length > 0;
+  }, null, { timeout: 15000 });
+
+  const t0 = Number(await tickShown());
+  await page.selectOption('#speed', '8');
+  await page.click('#play');
+  await waitTick('ge', t0 + 10, 'the clock to run');
+  assert.equal(await page.locator('#play').textContent(), 'Pause');
+  await page.click('#play');
+  await page.waitForFunction(() => !window.formicaViewer.state.playing, null, { timeout: 15000 });
+
+  const firstX = await page.evaluate(() => window.formicaViewer.state.robots[0].x);
+  await page.fill('#seed', '5');
+  await page.click('#restart');
+  await page.waitForFunction(() => window.formicaViewer.state.seed === 5 && window.formicaViewer.state.tick === 0, null, { timeout: 15000 });
+  assert.equal(await page.locator('#s-seed').textContent(), '5');
+  assert.equal(await tickShown(), '0');
+  const newX = await page.evaluate(() => window.formicaViewer.state.robots[0].x);
+  assert.notEqual(newX, firstX, 'a new seed places the robots anew');
+  await page.click('#newseed');
+  await page.waitForFunction(() => window.formicaViewer.state.seed === 6, null, { timeout: 15000 });
+  await page.click('#step');
+  await waitTick('eq', 1, 'tick 1 after restart');
+});
+
+test('a screenshot is saved, and nothing failed or came from elsewhere', async () => {
+  mkdirSync(OUT, { recursive: true });
+  const file = join(OUT, 'viewer.png');
+  await page.screenshot({ path: file, fullPage: true });
+  assert.ok(statSync(file).size > 10000, 'screenshot written');
+  console.log('# screenshot: ' + file);
+  assert.deepEqual(problems, []);
+  assert.deepEqual(foreign, []);
+});
