@@ -92,3 +92,19 @@ pub fn parse_params<P: serde::de::DeserializeOwned>(
         .try_into::<P>()
         .map_err(|e| e.message().trim().to_string())
 }
+
+/// Checks controller parameters: every `positive` value must be a finite number above zero,
+/// every `non_negative` one a finite number at least zero. The error names the parameter.
+pub fn check_params(positive: &[(&str, f32)], non_negative: &[(&str, f32)]) -> Result<(), String> {
+    for &(name, v) in positive {
+        if !(v > 0.0) || !v.is_finite() {
+            return Err(format!("`{name}` must be a positive number, got {v}"));
+        }
+    }
+    for &(name, v) in non_negative {
+        if !(v >= 0.0) || !v.is_finite() {
+            return Err(format!("`{name}` must be zero or more, got {v}"));
+        }
+    }
+    Ok(())
+}

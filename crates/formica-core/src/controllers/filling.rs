@@ -156,11 +156,6 @@ impl Params {
             ("attach_timeout_s", self.attach_timeout_s),
             ("creep_speed", self.creep_speed),
         ];
-        for (name, v) in positive {
-            if !(v > 0.0) || !v.is_finite() {
-                return Err(format!("`{name}` must be a positive number, got {v}"));
-            }
-        }
         let non_negative = [
             ("follow_gain", self.follow_gain),
             ("noise_floor", self.noise_floor),
@@ -169,11 +164,7 @@ impl Params {
             ("retry_s", self.retry_s),
             ("swing", self.swing),
         ];
-        for (name, v) in non_negative {
-            if !(v >= 0.0) || !v.is_finite() {
-                return Err(format!("`{name}` must be zero or more, got {v}"));
-            }
-        }
+        crate::controller::check_params(&positive, &non_negative)?;
         if self.stop_count == 0 || self.stop_count > 8 {
             return Err(format!(
                 "`stop_count` must be 1 to 8, got {}",

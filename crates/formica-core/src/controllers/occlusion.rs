@@ -204,11 +204,6 @@ impl Params {
             ("object_reach", self.object_reach),
             ("occluder_angle_deg", self.occluder_angle_deg),
         ];
-        for (name, v) in positive {
-            if !(v > 0.0) || !v.is_finite() {
-                return Err(format!("`{name}` must be a positive number, got {v}"));
-            }
-        }
         let non_negative = [
             ("circle_gap", self.circle_gap),
             ("gap_gain", self.gap_gain),
@@ -219,12 +214,7 @@ impl Params {
             ("block_s", self.block_s.unwrap_or(0.0)),
             ("push_goal_bias_deg", self.push_goal_bias_deg),
         ];
-        for (name, v) in non_negative {
-            if !(v >= 0.0) || !v.is_finite() {
-                return Err(format!("`{name}` must be zero or more, got {v}"));
-            }
-        }
-        Ok(())
+        crate::controller::check_params(&positive, &non_negative)
     }
 }
 
