@@ -1,23 +1,10 @@
 //! The `formica` command as users call it.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
+use common::{formica, repo};
 
-fn formica() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_formica"))
-}
-
-fn repo(p: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(p)
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("formica-cli-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> std::path::PathBuf {
+    common::tmp("cli", name)
 }
 
 #[test]

@@ -1,19 +1,12 @@
 //! `formica serve` and `formica record` as users call them.
 
 use std::io::{BufRead, BufReader, Read, Write};
-use std::path::PathBuf;
-use std::process::{Command, Stdio};
+
+use std::process::Stdio;
 use std::time::Duration;
 
-fn formica() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_formica"))
-}
-
-fn repo(p: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(p)
-}
+mod common;
+use common::{formica, repo};
 
 #[test]
 fn record_writes_an_animated_gif() {

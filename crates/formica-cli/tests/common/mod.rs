@@ -1,0 +1,28 @@
+//! Helpers shared by the command-line tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::process::Command;
+
+/// The `formica` binary under test.
+pub fn formica() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_formica"))
+}
+
+/// A path in the repository.
+pub fn repo(p: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(p)
+}
+
+/// A fresh, empty temporary folder for test `name` of suite `suite`.
+pub fn tmp(suite: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "formica-{suite}-test-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
