@@ -24,6 +24,11 @@ pub struct Args {
     /// Use this controller for every robot group.
     #[arg(long)]
     pub controller: Option<String>,
+    /// Override any scenario key, as sweep files do: `--set robots.0.count=10`,
+    /// `--set 'robots.0.params.perception="camera"'` (the value is TOML; a bare word is taken
+    /// as a string). Repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Write trajectories (CSV), the result (JSON) and a picture (PNG) into this folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -47,6 +52,34 @@ pub fn seed_range(s: &str) -> Option<std::ops::RangeInclusive<u64>> {
 pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
     seed_range(s)
         .ok_or_else(|| CliError::Input(format!("--seeds: expected A..B with A <= B, got `{s}`")))
+}
+
+/// Loads the scenario with the `--set` overrides applied.
+pub fn load(path: &std::path::Path, set: &[String]) -> Result<Scenario, CliError> {
+    if set.is_empty() {
+        return Ok(Scenario::load(path)?);
+    }
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
+    let mut overrides = Vec::with_capacity(set.len());
+    for item in set {
+        let (key, value) = item
+            .split_once('=')
+            .ok_or_else(|| CliError::Input(format!("--set: expected KEY=VALUE, got `{item}`")))?;
+        let value = toml::from_str::<toml::Table>(&format!("v = {value}"))
+            .ok()
+            .and_then(|mut t| t.remove("v"))
+            .unwrap_or_else(|| toml::Value::String(value.trim().to_string()));
+        overrides.push((key.trim().to_string(), value));
+    }
+    let origin = set.join("\n");
+    Ok(Scenario::parse_with_overrides(
+        &text,
+        &file,
+        &overrides,
+        ("--set", &origin),
+    )?)
 }
 
 fn overrides(a: &Args, seed: Option<u64>) -> Overrides {
@@ -81,7 +114,7 @@ fn describe(r: &RunResult) -> String {
 
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
-    let sc = Scenario::load(&a.scenario)?;
+    let sc = load(&a.scenario, &a.set)?;
     if let Some(c) = &a.controller {
         if !formica::controllers::NAMES.contains(&c.as_str()) {
             return Err(CliError::Input(format!(

@@ -199,3 +199,39 @@ fn bench_prints_json_lines() {
     assert!(lines[1]["robot_ticks_per_s"].as_f64().unwrap() > 0.0);
     assert!(lines[1].get("peak_memory_mib").is_some());
 }
+
+#[test]
+fn set_overrides_any_scenario_key_and_bad_values_are_input_errors() {
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args([
+            "--set",
+            "robots.0.count=7",
+            "--set",
+            "run.duration_s=5",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["robots"], 7);
+    assert_eq!(v["ticks"], 50);
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--set", "robots.0.count=0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("robots.0.count") && err.contains("at least 1"),
+        "{err}"
+    );
+}
