@@ -24,24 +24,27 @@ pub fn start(sc: &Scenario, seed: u64) -> Run {
 
 /// Stand-still robots at explicit poses `[x, y, heading_deg]`.
 pub fn still_robots(poses: &[[f32; 3]]) -> String {
-    let list: Vec<String> = poses
-        .iter()
-        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
-        .collect();
-    format!(
-        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.0, right = 0.0 }}\nplacement = {{ poses = [{}] }}\n",
-        list.join(", ")
-    )
+    robot_group("constant", "left = 0.0, right = 0.0", poses)
 }
 
 /// Robots driving straight at `speed` from explicit poses.
 pub fn pushers(poses: &[[f32; 3]], speed: f32) -> String {
+    robot_group(
+        "constant",
+        &format!("left = {speed}, right = {speed}"),
+        poses,
+    )
+}
+
+/// A `[[robots]]` group running `controller` with `params` (TOML, without braces) from
+/// explicit poses `[x, y, heading_deg]`.
+pub fn robot_group(controller: &str, params: &str, poses: &[[f32; 3]]) -> String {
     let list: Vec<String> = poses
         .iter()
         .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
         .collect();
     format!(
-        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = {speed}, right = {speed} }}\nplacement = {{ poses = [{}] }}\n",
+        "[[robots]]\ncontroller = \"{controller}\"\nparams = {{ {params} }}\nplacement = {{ poses = [{}] }}\n",
         list.join(", ")
     )
 }

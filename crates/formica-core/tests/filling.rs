@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{scenario, start};
+use common::{robot_group, scenario, start};
 use formica::experiment::Run;
 
 /// The seed's U (opening toward -x), static, 0.3 m tall, with the beacon light above it.
@@ -40,26 +40,12 @@ shape = { box = [0.6, 0.6] }
 "#;
 
 fn filling_robots(poses: &[[f32; 3]], params: &str) -> String {
-    let list: Vec<String> = poses
-        .iter()
-        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
-        .collect();
-    format!(
-        "[[robots]]\ncontroller = \"filling\"\nparams = {{ {params} }}\nplacement = {{ poses = [{}] }}\n",
-        list.join(", ")
-    )
+    robot_group("filling", params, poses)
 }
 
 /// Red, still, unattached robots: moving neighbours as the camera sees them.
 fn red_neighbours(poses: &[[f32; 3]]) -> String {
-    let list: Vec<String> = poses
-        .iter()
-        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
-        .collect();
-    format!(
-        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.0, right = 0.0, led = \"red\" }}\nplacement = {{ poses = [{}] }}\n",
-        list.join(", ")
-    )
+    robot_group("constant", "left = 0.0, right = 0.0, led = \"red\"", poses)
 }
 
 fn run_for(run: &mut Run, seconds: f64) {

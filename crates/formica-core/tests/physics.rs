@@ -39,14 +39,7 @@ fn a_robot_holding_still_is_pushed_by_at_most_its_drive_force() {
     let sc = scenario(&format!(
         "{}{}",
         still_robots(&[[0.5, 0.0, 0.0]]),
-        pushers(
-            &[[0.0, -0.05, 0.0], [0.0, 0.05, 0.0]].map(|p| [p[0], p[1] * 0.0 + p[1], 0.0]),
-            0.1
-        )
-        .replace(
-            "poses = [[0, -0.05, 0], [0, 0.05, 0]]",
-            "poses = [[0.0, 0.0, 0.0]]"
-        )
+        pushers(&[[0.0, 0.0, 0.0]], 0.1)
     ));
     let mut run = start(&sc, 1);
     for _ in 0..100 {

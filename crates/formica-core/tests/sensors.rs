@@ -7,13 +7,10 @@ use formica::sensors::light_blocked;
 
 /// A robot that reads proximity and light but stands still.
 fn watcher(poses: &[[f32; 3]]) -> String {
-    let list: Vec<String> = poses
-        .iter()
-        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
-        .collect();
-    format!(
-        "[[robots]]\ncontroller = \"random-walk\"\nparams = {{ speed = 0.0, turn_every_s = 1e9, avoid_threshold = 10.0 }}\nplacement = {{ poses = [{}] }}\n",
-        list.join(", ")
+    robot_group(
+        "random-walk",
+        "speed = 0.0, turn_every_s = 1e9, avoid_threshold = 10.0",
+        poses,
     )
 }
 
@@ -117,13 +114,10 @@ fn light_strength_follows_distance_law() {
 
 /// A robot whose controller reads the camera (LED green so others can see it).
 fn camera_watchers(poses: &[[f32; 3]]) -> String {
-    let list: Vec<String> = poses
-        .iter()
-        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
-        .collect();
-    format!(
-        "[[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.0, right = 0.0, led = \"red\", camera = true }}\nplacement = {{ poses = [{}] }}\n",
-        list.join(", ")
+    robot_group(
+        "constant",
+        "left = 0.0, right = 0.0, led = \"red\", camera = true",
+        poses,
     )
 }
 

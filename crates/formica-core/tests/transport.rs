@@ -1,22 +1,13 @@
 //! Occlusion-based transport (`occlusion` controller) on the shipped scenarios.
 
-use formica::experiment::{Run, RunOptions};
+mod common;
+use common::start;
+
 use formica::{Outcome, Overrides, Scenario};
 
 fn shipped(name: &str) -> Scenario {
     let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
     Scenario::load(path.as_ref()).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn start(sc: &Scenario, seed: u64) -> Run {
-    let opts = RunOptions {
-        overrides: Overrides {
-            seed: Some(seed),
-            ..Default::default()
-        },
-        ..Default::default()
-    };
-    Run::new(sc, &opts).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// What the object's distance to the goal did during a run, from the first tick a robot
