@@ -78,9 +78,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
             setup_s,
         };
         if a.json {
-            println!("{}", serde_json::to_string(&line).context("encoding JSON")?);
+            outln!("{}", serde_json::to_string(&line).context("encoding JSON")?);
         } else {
-            println!(
+            outln!(
                 "N = {:>6}: {:>12.0} robot-ticks/s ({:.2} us per robot-tick, {} ticks), peak memory {} MiB",
                 n,
                 rts,

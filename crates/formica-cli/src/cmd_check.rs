@@ -18,12 +18,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let run = Run::new(&sc, &RunOptions::default())?;
     let w = &run.world;
     let s = &sc.spec;
-    println!("{}: OK", sc.file);
-    println!("  name: {}", sc.name);
+    outln!("{}: OK", sc.file);
+    outln!("  name: {}", sc.name);
     if let Some(d) = &s.description {
-        println!("  description: {}", d.trim());
+        outln!("  description: {}", d.trim());
     }
-    println!(
+    outln!(
         "  arena: {} x {} m, {} extra walls",
         s.arena.size[0],
         s.arena.size[1],
@@ -35,16 +35,19 @@ pub fn main(a: Args) -> Result<(), CliError> {
         } else {
             ""
         };
-        println!(
+        outln!(
             "  light {i}: at ({}, {}), height {} m, intensity {}{goal}",
-            l.at[0], l.at[1], l.height, l.intensity
+            l.at[0],
+            l.at[1],
+            l.height,
+            l.intensity
         );
     }
     for (i, o) in w.objects.iter().enumerate() {
         let c = w.object_center(i);
         let kind = if o.movable { "movable" } else { "static" };
         let friction = s.objects[i].get_ref().floor_mu * o.mass * formica::physics::GRAVITY;
-        println!(
+        outln!(
             "  object {i} \"{}\": {kind}, {} part(s), centre ({:.3}, {:.3}), {} kg, height {} m, size {:.3} m, floor friction {:.2} N",
             o.name,
             o.parts.len(),
@@ -65,7 +68,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 })
                 .collect();
             if !pushers.is_empty() {
-                println!(
+                outln!(
                     "    needs at least {} pushing together to move",
                     pushers.join(" or ")
                 );
@@ -75,17 +78,20 @@ pub fn main(a: Args) -> Result<(), CliError> {
     for (g, grp) in w.groups.iter().enumerate() {
         let n = w.robots.iter().filter(|r| r.group == g).count();
         let needs = grp.needs();
-        println!(
+        outln!(
             "  robots[{g}]: {n} x {:?}, controller {}, sensors: proximity={} light={} beacon={} camera={}",
             grp.model.kind, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera
         );
     }
-    println!(
+    outln!(
         "  run: {} ticks/s, {} physics steps/tick, {} s, seed {}",
-        s.run.tick_hz, s.run.substeps, s.run.duration_s, s.run.seed
+        s.run.tick_hz,
+        s.run.substeps,
+        s.run.duration_s,
+        s.run.seed
     );
     if let Some(r) = run.goal_radius() {
-        println!(
+        outln!(
             "  stop: success within {r:.3} m of the goal; wall: {}",
             s.stop.on_wall
         );

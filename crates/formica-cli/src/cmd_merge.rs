@@ -103,7 +103,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         result?;
     }
     let after = store.count()?;
-    println!(
+    outln!(
         "{}: {after} trials ({} new from {} store(s))",
         a.out.display(),
         after - before,

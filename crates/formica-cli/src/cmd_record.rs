@@ -135,7 +135,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .map_or("cut short by --max-frames".to_string(), |o| {
             o.name().to_string()
         });
-    println!(
+    outln!(
         "wrote {}: {} frames, {} after {:.1} s ({} ticks)",
         a.out.display(),
         summary.frames,

@@ -626,7 +626,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let _ = writeln!(md, "### {title}\n\n![{title}]({f}.png) ([SVG]({f}.svg))\n");
     }
     std::fs::write(dir.join("summary.md"), md).context("writing summary.md")?;
-    println!(
+    outln!(
         "wrote {} figures (PNG and SVG) and summary.md to {}",
         figures.len(),
         dir.display()

@@ -146,12 +146,12 @@ fn run_one(a: &Args, sc: &Scenario) -> Result<(), CliError> {
     run.run_to_end();
     let result = run.result();
     if a.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string(&result).context("encoding JSON")?
         );
     } else {
-        println!("{}", describe(&result));
+        outln!("{}", describe(&result));
     }
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -173,7 +173,7 @@ fn run_one(a: &Args, sc: &Scenario) -> Result<(), CliError> {
         std::fs::write(dir.join("result.json"), json + "\n")
             .with_context(|| format!("writing {}", dir.join("result.json").display()))?;
         if !a.json {
-            println!(
+            outln!(
                 "wrote {}/{{object.csv, robots.csv, result.json, final.png}}",
                 dir.display()
             );
@@ -213,17 +213,17 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
     let summary = stats::summarize(&sc.name, &results);
     if a.json {
         for r in &results {
-            println!("{}", serde_json::to_string(r).context("encoding JSON")?);
+            outln!("{}", serde_json::to_string(r).context("encoding JSON")?);
         }
-        println!(
+        outln!(
             "{}",
             serde_json::to_string(&summary).context("encoding JSON")?
         );
     } else {
         for r in &results {
-            println!("{}", describe(r));
+            outln!("{}", describe(r));
         }
-        println!(
+        outln!(
             "{}: {} trials, success {:.1} % (95 % CI {:.1}-{:.1} %), median time {}, mean path efficiency {:.3}",
             summary.scenario,
             summary.trials,

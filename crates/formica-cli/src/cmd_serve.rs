@@ -64,7 +64,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     } else {
         addr.to_string()
     };
-    println!(
+    outln!(
         "serving {} on http://{shown}/ (Ctrl-C to stop)",
         a.scenario.display()
     );

@@ -111,7 +111,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     std::fs::create_dir_all(&db_dir).with_context(|| format!("creating {}", db_dir.display()))?;
     std::fs::write(&script_path, &text)
         .with_context(|| format!("writing {}", script_path.display()))?;
-    println!(
+    outln!(
         "wrote {} ({} tasks over {n_trials} trials, stores in {})",
         script_path.display(),
         a.array,
@@ -130,7 +130,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             )));
         }
         let id = String::from_utf8_lossy(&out.stdout).trim().to_string();
-        println!("submitted job {id}");
+        outln!("submitted job {id}");
     }
     Ok(())
 }

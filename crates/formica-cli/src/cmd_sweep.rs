@@ -99,12 +99,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
     };
     if a.dry_run {
         for t in &mine {
-            println!(
+            outln!(
                 "trial {} seed {} {}",
-                t.index, t.seed, sweep.sets[t.set].key
+                t.index,
+                t.seed,
+                sweep.sets[t.set].key
             );
         }
-        println!(
+        outln!(
             "{}: {} parameter sets x {} seeds = {} trials, {} in this shard",
             sweep.name,
             sweep.sets.len(),
@@ -216,7 +218,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let store = Store::open(&db)?;
     let total = store.count()?;
     let [lo, hi] = stats::wilson95(ok, n);
-    println!(
+    outln!(
         "{}: ran {n} trials ({} successes, {:.1} %, 95 % CI {:.1}-{:.1} %), skipped {skipped} already stored; {} holds {total} of {} trials",
         sweep.name,
         ok,

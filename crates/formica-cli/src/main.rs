@@ -3,6 +3,9 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+#[macro_use]
+mod console;
+
 mod cmd_bench;
 mod cmd_check;
 mod cmd_export;

@@ -235,3 +235,25 @@ fn set_overrides_any_scenario_key_and_bad_values_are_input_errors() {
         "{err}"
     );
 }
+
+#[test]
+fn a_closed_stdout_neither_panics_nor_loses_the_out_files() {
+    // As `formica run ... --out DIR | head -0`: the reader is gone before the first line.
+    let out = tmp("closed-stdout");
+    let mut child = formica()
+        .args(["run", "--seed", "1", "--duration", "5", "--out"])
+        .arg(&out)
+        .arg(repo("scenarios/seed-transport.toml"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let done = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert!(done.status.success(), "{:?}: {stderr}", done.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for f in ["object.csv", "robots.csv", "result.json", "final.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+}

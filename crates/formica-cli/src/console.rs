@@ -1,0 +1,33 @@
+//! Printing to stdout. Once the reader of stdout has gone (`formica run ... | head -1`), later
+//! lines are dropped instead of panicking as `println!` would, and the command still finishes
+//! its work: files it writes (`--out`, a sweep's store) are never lost to a closed pipe.
+
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Like `println!`, but a closed stdout drops the line (see the module docs).
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::console::line(format_args!($($arg)*))
+    };
+}
+
+static CLOSED: AtomicBool = AtomicBool::new(false);
+
+/// Writes one line to stdout, unless the reader has gone.
+pub fn line(args: std::fmt::Arguments) {
+    if CLOSED.load(Ordering::Relaxed) {
+        return;
+    }
+    let mut out = std::io::stdout().lock();
+    let written = out
+        .write_fmt(args)
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush());
+    if let Err(e) = written {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("warning: writing to stdout: {e}; further output dropped");
+        }
+        CLOSED.store(true, Ordering::Relaxed);
+    }
+}
