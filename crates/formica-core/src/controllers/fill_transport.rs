@@ -16,7 +16,10 @@
 //! takes a dark light ring as "hidden by the object" only if the object's centre lies within
 //! `occluded_within_deg` of that direction (otherwise neighbours hide the goal, or the robot
 //! stands on the goal's side: it is handed a faint light from the remembered direction and
-//! does not push). `pusher = "edge"` swaps the occlusion controller for the filler's own edge
+//! does not push). The lap also measures the pseudo object: the pusher takes proximity hits
+//! as the object out to the farthest distance from the centre at which the robot followed the
+//! edge, plus `reach_margin` (a fixed `object_reach` too small for the pseudo object makes
+//! pushers near its ends take it for an obstacle, lose it and crowd). `pusher = "edge"` swaps the occlusion controller for the filler's own edge
 //! following. Attached robots' wheels exert no force; the pseudo object is moved by the
 //! pushers only.
 //!
@@ -69,6 +72,10 @@ pub struct Params {
     /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
     /// Default 90; 180 turns the check off.
     pub occluded_within_deg: f32,
+    /// Margin (m) added to the farthest distance from the object's centre at which the robot
+    /// followed the edge during its lap; the pusher's `object_reach` is at least this. Default
+    /// 0.12.
+    pub reach_margin: f32,
 }
 
 impl Default for Params {
@@ -81,6 +88,7 @@ impl Default for Params {
             push: occlusion::Params::default(),
             laps: 1.0,
             occluded_within_deg: 90.0,
+            reach_margin: 0.12,
             pusher: Pusher::Occlusion,
             push_speed: 0.1,
             hidden_s: 0.3,
@@ -98,6 +106,12 @@ pub fn factory(
     p.push.validate().map_err(|e| format!("push: {e}"))?;
     if !(p.laps > 0.0) || !p.laps.is_finite() {
         return Err(format!("`laps` must be a positive number, got {}", p.laps));
+    }
+    if !(0.0..=1.0).contains(&p.reach_margin) {
+        return Err(format!(
+            "`reach_margin` must be 0 to 1 m, got {}",
+            p.reach_margin
+        ));
     }
     if !(0.0..=180.0).contains(&p.occluded_within_deg) {
         return Err(format!(
@@ -127,6 +141,9 @@ pub struct FillTransport {
     laps: f32,
     pushing: bool,
     occluded_within: f32,
+    reach_margin: f32,
+    /// Farthest distance from the object's centre (m) at which this robot followed its edge.
+    farthest: f32,
     /// Direction of the goal light (world frame, rad) when last seen.
     goal_dir: Option<f32>,
     pusher_kind: Pusher,
@@ -150,6 +167,8 @@ impl FillTransport {
             laps: p.laps,
             pushing: false,
             occluded_within: p.occluded_within_deg.to_radians(),
+            reach_margin: p.reach_margin,
+            farthest: 0.0,
             goal_dir: None,
             pusher_kind: p.pusher,
             push_speed: p.push_speed,
@@ -274,6 +293,9 @@ impl Controller for FillTransport {
             });
             let act = self.filler.step_guided(r, rng, target, centre);
             let st = self.filler.fill_state();
+            if let (Some(c), FillState::Follow | FillState::Arc) = (centre, st) {
+                self.farthest = self.farthest.max((c - r.pose.position()).length());
+            }
             let done = self.filler.circled().abs() >= self.laps * FULL_TURN
                 && matches!(st, FillState::Follow | FillState::Arc);
             if !done || st == FillState::Stopped {
@@ -281,6 +303,11 @@ impl Controller for FillTransport {
             }
             self.pushing = true;
             self.filler.set_stopping(false);
+            let reach = self
+                .pusher
+                .object_reach()
+                .max(self.farthest + self.reach_margin);
+            self.pusher.set_object_reach(reach);
         }
         if self.pusher_kind == Pusher::Edge {
             return self.edge_push(rng);

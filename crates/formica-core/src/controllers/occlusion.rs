@@ -295,6 +295,17 @@ impl Occlusion {
         }
     }
 
+    /// Beacon perception: the distance from the object's centre (m) within which proximity
+    /// hits facing the centre are taken to be the object.
+    pub fn object_reach(&self) -> f32 {
+        self.p.object_reach
+    }
+
+    /// Changes `object_reach` (m), e.g. to a size the robot measured on its way round.
+    pub fn set_object_reach(&mut self, reach: f32) {
+        self.p.object_reach = reach;
+    }
+
     /// Seconds blocked before turning back (`Params::block_s` or its default).
     fn block_s(&self) -> f32 {
         match (self.p.block_s, self.p.perception) {
