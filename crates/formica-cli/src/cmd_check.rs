@@ -2,6 +2,7 @@
 
 use crate::CliError;
 use formica::experiment::{object_size, Run, RunOptions};
+use formica::world::World;
 use formica::Scenario;
 use std::path::PathBuf;
 
@@ -82,6 +83,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
             "  robots[{g}]: {n} x {:?}, controller {}, sensors: proximity={} light={} beacon={} camera={}",
             grp.model.kind, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera
         );
+        if let Some(warning) = reach_warning(&sc, w, g) {
+            outln!("    warning: {warning}");
+        }
     }
     outln!(
         "  run: {} ticks/s, {} physics steps/tick, {} s, seed {}",
@@ -97,4 +101,42 @@ pub fn main(a: Args) -> Result<(), CliError> {
         );
     }
     Ok(())
+}
+
+/// Largest distance from object `i`'s centre to its outline (m).
+fn object_radius(w: &World, i: usize) -> f32 {
+    let (c, pose) = (w.object_center(i), w.object_pose(i));
+    w.objects[i]
+        .outlines()
+        .into_iter()
+        .flatten()
+        .map(|p| (pose.world_from_local(p) - c).length())
+        .fold(0.0, f32::max)
+}
+
+/// For an `occlusion` group with beacon perception: a warning if its `object_reach` is shorter
+/// than the target object's radius plus 0.2 m, the controller's documented rule (pushers near
+/// the object's ends would take it for an obstacle).
+fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
+    use formica::controllers::occlusion::{Params, Perception};
+    if w.groups[g].controller != "occlusion" {
+        return None;
+    }
+    let params = sc.spec.robots[g]
+        .get_ref()
+        .params
+        .as_ref()
+        .map(|p| p.get_ref().clone());
+    let p: Params = formica::controller::parse_params(params.as_ref()).ok()?;
+    let t = w.target?;
+    let radius = object_radius(w, t);
+    if p.perception != Perception::Beacon || p.object_reach >= radius + 0.2 {
+        return None;
+    }
+    Some(format!(
+        "object_reach is {} m but the object's radius is {radius:.2} m; pushers near its ends \
+         will take it for an obstacle (set robots.{g}.params.object_reach to at least {:.2})",
+        p.object_reach,
+        radius + 0.2
+    ))
 }

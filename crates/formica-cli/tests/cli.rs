@@ -257,3 +257,30 @@ fn a_closed_stdout_neither_panics_nor_loses_the_out_files() {
         assert!(out.join(f).is_file(), "{f} missing");
     }
 }
+
+#[test]
+fn check_warns_when_occlusion_cannot_reach_round_the_object() {
+    // The U's radius is 0.62 m: `occlusion`'s default object_reach (0.6 m) is too short, as
+    // its documentation's rule (radius + 0.2 m) says; 0.85 m is enough.
+    let u = std::fs::read_to_string(repo("scenarios/fill-transport-u.toml")).unwrap();
+    let dir = tmp("reach");
+    let check = |params: &str| {
+        let text = u.replace(
+            "controller = \"fill-transport\"",
+            &format!("controller = \"occlusion\"\nparams = {{ {params} }}"),
+        );
+        let f = dir.join("u.toml");
+        std::fs::write(&f, text).unwrap();
+        let out = formica().arg("check").arg(&f).output().unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let short = check("");
+    assert!(
+        short.contains("warning: object_reach is 0.6 m but the object's radius is 0.62 m")
+            && short.contains("at least 0.82"),
+        "{short}"
+    );
+    let enough = check("object_reach = 0.85");
+    assert!(!enough.contains("warning"), "{enough}");
+}
