@@ -76,8 +76,8 @@ pub struct Params {
     /// Default 2.
     pub strong_count: u32,
     /// Largest proximity reading kept on the left while following. Default 0.95 (a Khepera IV's
-    /// gap of about 4.2 cm; at 0.85, 4.5 cm, followers skipped pockets only just a robot wide,
-    /// such as the one an arm of the U leaves next to attached robots).
+    /// gap of about 4.2 cm; at 0.85, 4.5 cm, followers in the seed's U often went round empty
+    /// corners and gaps of the cavity for minutes without stopping).
     pub follow_reading: f32,
     /// Turn rate per unit of reading error while following (rad/s). Default 2.
     pub follow_gain: f32,
