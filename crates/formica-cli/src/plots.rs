@@ -2,6 +2,7 @@
 //! system libraries).
 
 use anyhow::{anyhow, Result};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -186,14 +187,7 @@ where
         }
     }
     if ns > 1 {
-        chart
-            .configure_series_labels()
-            .label_font((FAMILY, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
+        draw_legend(&mut chart)?;
     }
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
@@ -260,14 +254,7 @@ where
         }
     }
     if p.legend && !p.curves.is_empty() {
-        chart
-            .configure_series_labels()
-            .label_font((FAMILY, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
+        draw_legend(&mut chart)?;
     }
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
@@ -291,6 +278,21 @@ macro_rules! both {
 }
 
 /// Saves a category plot as PNG and SVG.
+/// Draws the series labels in the upper right, in the reports' style.
+fn draw_legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .label_font((FAMILY, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
+    Ok(())
+}
+
 pub fn save_category(dir: &Path, stem: &str, p: &CategoryPlot) -> Result<()> {
     let longest = p
         .categories
