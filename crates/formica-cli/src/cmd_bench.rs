@@ -52,6 +52,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
             "--robots: expected positive counts, e.g. 20,100,1000".into(),
         ));
     }
+    if a.ticks == Some(0) {
+        return Err(CliError::Input(
+            "--ticks: expected a positive number of ticks".into(),
+        ));
+    }
     for &n in &a.robots {
         reset_peak_memory();
         let t0 = std::time::Instant::now();

@@ -30,7 +30,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         s.arena.size[1],
         s.walls.len()
     );
-    for (i, l) in s.lights.iter().enumerate() {
+    for (i, l) in s.lights.iter().map(|l| l.get_ref()).enumerate() {
         let goal = if w.goal_light == Some(i) {
             " (goal)"
         } else {

@@ -491,10 +491,10 @@ pub struct ScenarioSpec {
     pub arena: Arena,
     /// Extra walls.
     #[serde(default)]
-    pub walls: Vec<WallSpec>,
+    pub walls: Vec<Spanned<WallSpec>>,
     /// Lights.
     #[serde(default)]
-    pub lights: Vec<LightSpec>,
+    pub lights: Vec<Spanned<LightSpec>>,
     /// Objects.
     #[serde(default)]
     pub objects: Vec<Spanned<ObjectSpec>>,
@@ -549,6 +549,15 @@ impl Scenario {
 
     /// Parses and validates scenario text; `file` names it in errors.
     pub fn parse(text: &str, file: &str) -> Result<Scenario, ScenarioError> {
+        if let Some((at, token)) = non_finite_literal(text) {
+            let (line, column) = line_col(text, at);
+            return Err(ScenarioError::Invalid {
+                file: file.to_string(),
+                line,
+                column,
+                message: format!("expected a finite number, found `{token}`"),
+            });
+        }
         let spec: ScenarioSpec = toml::from_str(text).map_err(|e| {
             let (line, column) = line_col(text, e.span().map_or(0, |s| s.start));
             ScenarioError::Invalid {
@@ -778,8 +787,8 @@ impl Scenario {
     pub fn goal_light(&self) -> Option<usize> {
         let l = &self.spec.lights;
         l.iter()
-            .position(|x| x.goal == Some(true))
-            .or_else(|| (!l.is_empty() && l[0].goal != Some(false)).then_some(0))
+            .position(|x| x.get_ref().goal == Some(true))
+            .or_else(|| (!l.is_empty() && l[0].get_ref().goal != Some(false)).then_some(0))
     }
 
     fn validate(&self) -> Result<(), ScenarioError> {
@@ -796,6 +805,63 @@ impl Scenario {
         }
         if !(s.run.duration_s > 0.0) {
             return Err(top("run.duration_s: expected a positive number"));
+        }
+        if let Some(path) = toml::Value::try_from(s)
+            .ok()
+            .and_then(|v| non_finite_path(&v, String::new()))
+        {
+            // Too large for 32 bits (a `nan` or `inf` literal is caught while parsing).
+            let item = |list: &str, i: usize| match list {
+                "objects" => s.objects.get(i).map(Spanned::span),
+                "robots" => s.robots.get(i).map(Spanned::span),
+                "walls" => s.walls.get(i).map(Spanned::span),
+                "lights" => s.lights.get(i).map(Spanned::span),
+                _ => None,
+            };
+            let span = path
+                .split_once('[')
+                .and_then(|(list, rest)| {
+                    let i = rest.split(']').next()?.parse().ok()?;
+                    item(list, i)
+                })
+                .unwrap_or(0..0);
+            return Err(self.error_at(span, format!("{path}: expected a finite number")));
+        }
+        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+        if !finite(&s.arena.size) || !finite(&s.arena.center) {
+            return Err(top("arena: expected finite numbers"));
+        }
+        for (i, w) in s.walls.iter().enumerate() {
+            let ws = w.get_ref();
+            let ok = finite(&ws.at)
+                && finite(&ws.size)
+                && finite(&[ws.yaw_deg, ws.height])
+                && ws.size[0] > 0.0
+                && ws.size[1] > 0.0
+                && ws.height > 0.0;
+            if !ok {
+                return Err(self.error_at(
+                    w.span(),
+                    format!(
+                        "walls[{i}]: expected a finite `at` and `yaw_deg`, a positive `size` and `height`"
+                    ),
+                ));
+            }
+        }
+        for (i, l) in s.lights.iter().enumerate() {
+            let ls = l.get_ref();
+            let ok = finite(&ls.at)
+                && finite(&[ls.height, ls.intensity])
+                && ls.height >= 0.0
+                && ls.intensity > 0.0;
+            if !ok {
+                return Err(self.error_at(
+                    l.span(),
+                    format!(
+                        "lights[{i}]: expected a finite `at`, `height` >= 0 and `intensity` > 0"
+                    ),
+                ));
+            }
         }
         for (i, o) in s.objects.iter().enumerate() {
             self.object_parts(i)?;
@@ -877,6 +943,87 @@ fn name_suffix(name: &Option<String>) -> String {
         .map_or(String::new(), |n| format!(" (\"{n}\")"))
 }
 
+/// Key path (`objects[0].at[1]`) of the first non-finite number in `v`, if any.
+fn non_finite_path(v: &toml::Value, path: String) -> Option<String> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some(path),
+        toml::Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, x)| non_finite_path(x, format!("{path}[{i}]"))),
+        toml::Value::Table(t) => t.iter().find_map(|(k, x)| {
+            let p = if path.is_empty() {
+                k.clone()
+            } else {
+                format!("{path}.{k}")
+            };
+            non_finite_path(x, p)
+        }),
+        _ => None,
+    }
+}
+
+/// Byte offset and text of the first `nan` or `inf` (signed or not) written as a TOML value
+/// (after `=`, `[` or `,`, outside strings and comments). No scenario number may be
+/// non-finite: a NaN position or an infinite duration would make a run meaningless or endless.
+fn non_finite_literal(text: &str) -> Option<(usize, &str)> {
+    let b = text.as_bytes();
+    let mut i = 0;
+    let mut last = b'\n';
+    while i < b.len() {
+        let c = b[i];
+        match c {
+            b'#' => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+                continue;
+            }
+            b'"' | b'\'' => {
+                let triple = b[i..].starts_with(if c == b'"' { b"\"\"\"" } else { b"\'\'\'" });
+                let quote: &[u8] = match (c, triple) {
+                    (b'"', true) => b"\"\"\"",
+                    (b'"', false) => b"\"",
+                    (_, true) => b"\'\'\'",
+                    _ => b"\'",
+                };
+                i += quote.len();
+                while i < b.len() && !b[i..].starts_with(quote) {
+                    if c == b'"' && b[i] == b'\\' {
+                        i += 1;
+                    }
+                    i += 1;
+                }
+                i += quote.len();
+                last = b'"';
+                continue;
+            }
+            b'+' | b'-' | b'i' | b'n' if matches!(last, b'=' | b'[' | b',') => {
+                let start = i;
+                let sign = usize::from(c == b'+' || c == b'-');
+                let word = &b[i + sign..];
+                let len = word
+                    .iter()
+                    .take_while(|x| x.is_ascii_alphanumeric() || **x == b'_')
+                    .count();
+                let rest = word[len..].iter().find(|x| !matches!(x, b' ' | b'\t'));
+                if matches!(&word[..len], b"nan" | b"inf") && rest != Some(&b'=') {
+                    return Some((start, &text[start..start + sign + len]));
+                }
+                i += sign + len.max(1);
+                last = b'a';
+                continue;
+            }
+            _ => {}
+        }
+        if !c.is_ascii_whitespace() {
+            last = c;
+        }
+        i += 1;
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -943,6 +1090,57 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         let (line, msg) = err(&text);
         assert_eq!(line, 7);
         assert!(msg.contains("self-intersecting"), "{msg}");
+    }
+
+    #[test]
+    fn non_finite_numbers_are_rejected_where_written() {
+        // In an array over two lines, signed, and as an inline-table value.
+        let text = MIN.replace("size = [6.0, 4.0]", "size = [6.0,\n  -inf]");
+        let (line, msg) = err(&text);
+        assert_eq!(line, 4);
+        assert!(
+            msg.contains("expected a finite number, found `-inf`"),
+            "{msg}"
+        );
+        let text = MIN.replace(
+            "count = 3",
+            "count = 3\nsensors = { proximity_noise = nan }",
+        );
+        let (line, msg) = err(&text);
+        assert_eq!(line, 11);
+        assert!(msg.contains("found `nan`"), "{msg}");
+        // Words in strings and comments, and keys named like them, are not numbers.
+        let text = format!("name = \"inf nan\" # nan\n{MIN}");
+        assert!(Scenario::parse(&text, "t.toml").is_ok());
+        assert_eq!(non_finite_literal("x = { inf = 1.0, nan= 2 }"), None);
+        // Finite in the file, infinite as a 32-bit number: named by its key path, at its item.
+        let text = MIN.replace("at = [-1.0, 0.0]", "at = [1e39, 0.0]");
+        let (line, msg) = err(&text);
+        assert_eq!(line, 5);
+        assert!(
+            msg.contains("objects[0].at[0]: expected a finite number"),
+            "{msg}"
+        );
+        let multi = "x = '''\nnan'''\ny = [1, +nan]";
+        assert_eq!(non_finite_literal(multi).map(|p| p.1), Some("+nan"));
+    }
+
+    #[test]
+    fn bad_lights_and_walls_are_rejected_at_their_line() {
+        let light = "[[lights]]\nat = [1.0, 0.0]\nintensity = -2.0\n";
+        let (line, msg) = err(&format!("{MIN}\n{light}"));
+        assert_eq!(line, MIN.lines().count() + 2);
+        assert!(
+            msg.contains("lights[0]") && msg.contains("intensity"),
+            "{msg}"
+        );
+        let wall = "[[walls]]\nat = [1.0, 0.0]\nsize = [0.0, 1.0]\n";
+        let (line, msg) = err(&format!("{MIN}\n{wall}"));
+        assert_eq!(line, MIN.lines().count() + 2);
+        assert!(
+            msg.contains("walls[0]") && msg.contains("positive `size`"),
+            "{msg}"
+        );
     }
 
     fn ov(pairs: &[(&str, &str)]) -> Vec<(String, toml::Value)> {

@@ -200,7 +200,7 @@ impl World {
                 height: wh,
             },
         ];
-        for ws in &spec.walls {
+        for ws in spec.walls.iter().map(|w| w.get_ref()) {
             walls.push(Wall {
                 center: Vec2::new(ws.at[0], ws.at[1]),
                 size: Vec2::new(ws.size[0], ws.size[1]),
@@ -238,6 +238,7 @@ impl World {
         let lights = spec
             .lights
             .iter()
+            .map(|l| l.get_ref())
             .map(|l| Light {
                 position: Vec2::new(l.at[0], l.at[1]),
                 height: l.height,
