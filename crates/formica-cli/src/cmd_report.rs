@@ -51,10 +51,12 @@ fn slug(key: &str) -> String {
         .collect()
 }
 
-/// Distinct values of `key` in trial order (numbers sorted numerically).
+/// Distinct values of `key` in trial order (numbers sorted numerically), then `-` if some
+/// parameter sets (cases) do not set it, so that no trial drops out of a plot split by it.
 fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     let mut numeric = true;
+    let mut unset = false;
     for r in rows {
         if let Some(v) = r.params.get(key) {
             numeric &= v.is_number();
@@ -62,6 +64,8 @@ fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
             if !out.contains(&l) {
                 out.push(l);
             }
+        } else {
+            unset = true;
         }
     }
     if numeric {
@@ -72,6 +76,9 @@ fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
             );
             x.total_cmp(&y)
         });
+    }
+    if unset {
+        out.push("-".into());
     }
     out
 }
@@ -649,6 +656,27 @@ mod tests {
             controller: "c".into(),
             ..RunResult::default()
         }
+    }
+
+    #[test]
+    fn a_key_some_cases_leave_unset_keeps_their_trials_as_dash() {
+        let trial = |params: serde_json::Value| {
+            let params = params.as_object().cloned().unwrap_or_default();
+            StoredTrial {
+                params_json: serde_json::Value::Object(params.clone()).to_string(),
+                params,
+                result: r(Outcome::Success, 1.0),
+            }
+        };
+        let key = "robots.0.params.object_reach";
+        let rows = [
+            trial(serde_json::json!({ key: 0.83 })),
+            trial(serde_json::json!({ "label": "fill" })),
+            trial(serde_json::json!({ key: 0.62 })),
+        ];
+        assert_eq!(values_of(&rows, key), ["0.62", "0.83", "-"]);
+        assert_eq!(value(&rows[1], key), "-");
+        assert_eq!(values_of(&rows[..1], key), ["0.83"]);
     }
 
     #[test]
