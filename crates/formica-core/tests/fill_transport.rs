@@ -55,3 +55,53 @@ fn fill_transport_fills_and_delivers_the_arc() {
         fills_then_delivers("fill-transport-arc.toml", seed);
     }
 }
+
+#[test]
+fn a_crowd_jammed_around_a_small_object_still_delivers_it() {
+    // Queiroz & MacRae's protocol with 30 robots and their 0.4 m disc: the fillers ring the
+    // disc two deep and none can complete a lap, so without the stall rule nobody ever pushes.
+    let text = std::fs::read_to_string(format!(
+        "{}/../../scenarios/seed-transport.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap_or_else(|e| panic!("{e}"));
+    let qm = |stall_s: f32, duration_s: f32| {
+        let sets = [
+            ("lights.0.at", "[1.0, 1.0]"),
+            ("objects.0.at", "[-1.0, -1.0]"),
+            ("objects.0.mass", "5.0"),
+            ("objects.0.height", "0.3"),
+            ("objects.0.floor_mu", "0.03"),
+            ("objects.0.shape", "{ disc = 0.2 }"),
+            (
+                "robots.0.placement",
+                "{ random = { min = [-2.8, -1.8], max = [2.8, 1.8] } }",
+            ),
+            ("robots.0.count", "30"),
+            ("robots.0.controller", "\"fill-transport\""),
+            ("robots.0.params", &format!("{{ stall_s = {stall_s:.1} }}")),
+            ("run.duration_s", &format!("{duration_s:.1}")),
+        ];
+        let overrides: Vec<(String, toml::Value)> = sets
+            .iter()
+            .map(|(k, v)| {
+                let t: toml::Table = toml::from_str(&format!("v = {v}")).unwrap();
+                (k.to_string(), t["v"].clone())
+            })
+            .collect();
+        let sc =
+            Scenario::parse_with_overrides(&text, "seed-transport.toml", &overrides, ("t", ""))
+                .unwrap_or_else(|e| panic!("{e}"));
+        let mut run = start(&sc, 2);
+        let outcome = run.run_to_end();
+        (outcome, run.result().goal_distance_m.unwrap_or(0.0))
+    };
+    let (with_rule, _) = qm(240.0, 1200.0);
+    assert_eq!(with_rule, Outcome::Success);
+    let (without, left) = qm(10_000.0, 400.0);
+    assert_eq!(without, Outcome::Timeout);
+    assert!(
+        left > 2.5,
+        "the jammed object moved to {left} m from the goal"
+    );
+}

@@ -9,7 +9,9 @@
 //! its first contact on, it sums the angle it sweeps around the object's centre.
 //! **When filling is over** is decided by each robot alone, without a leader or messages: a
 //! robot that has swept `laps` full turns (default 1) around the pseudo object without finding
-//! a concave spot concludes that there is none left and becomes a **pusher** for good. Pushers
+//! a concave spot concludes that there is none left and becomes a **pusher** for good; so does a
+//! robot whose lap has not advanced by `stall_deg` for `stall_s` (a crowd of fillers jammed
+//! around a small object never completes a lap, and nobody would push). Pushers
 //! run the `occlusion` controller ([`Occlusion`], beacon perception): they circle the pseudo
 //! object and push where it hides the goal light (all light sensors zero). Occlusion with
 //! memory: a pusher remembers the goal's direction (world frame) from when it last saw it, and
@@ -72,6 +74,11 @@ pub struct Params {
     /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
     /// Default 90; 180 turns the check off.
     pub occluded_within_deg: f32,
+    /// Seconds after which a filler whose lap has not advanced by `stall_deg` since its first
+    /// contact becomes a pusher. Default 240.
+    pub stall_s: f32,
+    /// Lap progress (degrees around the object's centre) that counts as advancing. Default 30.
+    pub stall_deg: f32,
     /// Margin (m) added to the farthest distance from the object's centre at which the robot
     /// followed the edge during its lap; the pusher's `object_reach` is at least this. Default
     /// 0.12.
@@ -92,6 +99,8 @@ impl Default for Params {
             laps: 1.0,
             occluded_within_deg: 90.0,
             reach_margin: 0.12,
+            stall_s: 240.0,
+            stall_deg: 30.0,
             pusher: Pusher::Occlusion,
             push_speed: 0.1,
             hidden_s: 0.3,
@@ -107,8 +116,15 @@ pub fn factory(
     let p: Params = parse_params(params)?;
     p.fill.validate().map_err(|e| format!("fill: {e}"))?;
     p.push.validate().map_err(|e| format!("push: {e}"))?;
-    if !(p.laps > 0.0) || !p.laps.is_finite() {
+    let positive = |x: f32| x > 0.0 && x.is_finite();
+    if !positive(p.laps) {
         return Err(format!("`laps` must be a positive number, got {}", p.laps));
+    }
+    if !(positive(p.stall_s) && positive(p.stall_deg)) {
+        return Err(format!(
+            "`stall_s` and `stall_deg` must be positive numbers, got {} and {}",
+            p.stall_s, p.stall_deg
+        ));
     }
     if !(0.0..=1.0).contains(&p.reach_margin) {
         return Err(format!(
@@ -145,6 +161,10 @@ pub struct FillTransport {
     pushing: bool,
     occluded_within: f32,
     reach_margin: f32,
+    stall_s: f32,
+    stall_rad: f32,
+    /// Lap progress watch: the angle swept and the time when it last advanced by `stall_rad`.
+    lap_anchor: Option<(f32, f32)>,
     /// Farthest distance from the object's centre (m) at which this robot followed its edge.
     farthest: f32,
     /// Direction of the goal light (world frame, rad) when last seen.
@@ -171,6 +191,9 @@ impl FillTransport {
             pushing: false,
             occluded_within: p.occluded_within_deg.to_radians(),
             reach_margin: p.reach_margin,
+            stall_s: p.stall_s,
+            stall_rad: p.stall_deg.to_radians(),
+            lap_anchor: None,
             farthest: 0.0,
             goal_dir: None,
             pusher_kind: p.pusher,
@@ -299,7 +322,17 @@ impl Controller for FillTransport {
             if let (Some(c), FillState::Follow | FillState::Arc) = (centre, st) {
                 self.farthest = self.farthest.max((c - r.pose.position()).length());
             }
-            let done = self.filler.circled().abs() >= self.laps * FULL_TURN
+            let circled = self.filler.circled();
+            let stalled = self.filler.touched() && {
+                let (a, t) = *self.lap_anchor.get_or_insert((circled, r.time_s));
+                if (circled - a).abs() >= self.stall_rad {
+                    self.lap_anchor = Some((circled, r.time_s));
+                    false
+                } else {
+                    r.time_s - t >= self.stall_s
+                }
+            };
+            let done = (circled.abs() >= self.laps * FULL_TURN || stalled)
                 && matches!(st, FillState::Follow | FillState::Arc);
             if !done || st == FillState::Stopped {
                 return act;

@@ -322,6 +322,11 @@ impl Filler {
         self.state
     }
 
+    /// Whether the robot has touched something object-like yet.
+    pub fn touched(&self) -> bool {
+        self.touched
+    }
+
     /// Angle (rad, counter-clockwise positive) swept around the reference point given to
     /// [`Filler::step_guided`] since the robot first touched something object-like.
     pub fn circled(&self) -> f32 {
