@@ -11,8 +11,8 @@
 //! robot that has swept `laps` full turns (default 1) around the pseudo object without finding
 //! a concave spot concludes that there is none left and becomes a **pusher** for good; so does a
 //! robot whose lap has not advanced by `stall_deg` for `stall_s` (a crowd of fillers jammed
-//! around a small object never completes a lap, and nobody would push). Pushers
-//! run the `occlusion` controller ([`Occlusion`], beacon perception): they circle the pseudo
+//! around a small object never completes a lap, and nobody would push). Pushers run the
+//! `occlusion` controller ([`Occlusion`], beacon perception): they circle the pseudo
 //! object and push where it hides the goal light (all light sensors zero). Occlusion with
 //! memory: a pusher remembers the goal's direction (world frame) from when it last saw it, and
 //! takes a dark light ring as "hidden by the object" only if the object's centre lies within
@@ -21,9 +21,9 @@
 //! does not push). The lap also measures the pseudo object: the pusher takes proximity hits
 //! as the object out to the farthest distance from the centre at which the robot followed the
 //! edge, plus `reach_margin` (a fixed `object_reach` too small for the pseudo object makes
-//! pushers near its ends take it for an obstacle, lose it and crowd). `pusher = "edge"` swaps the occlusion controller for the filler's own edge
-//! following. Attached robots' wheels exert no force; the pseudo object is moved by the
-//! pushers only.
+//! pushers near its ends take it for an obstacle, lose it and crowd). `pusher = "edge"` swaps
+//! the occlusion controller for the filler's own edge following. Attached robots' wheels exert
+//! no force; the pseudo object is moved by the pushers only.
 //!
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
