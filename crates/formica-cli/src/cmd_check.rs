@@ -105,12 +105,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
 
 /// Largest distance from object `i`'s centre to its outline (m).
 fn object_radius(w: &World, i: usize) -> f32 {
-    let (c, pose) = (w.object_center(i), w.object_pose(i));
-    w.objects[i]
-        .outlines()
+    let c = w.object_center(i);
+    w.object_outlines(i)
         .into_iter()
         .flatten()
-        .map(|p| (pose.world_from_local(p) - c).length())
+        .map(|p| (p - c).length())
         .fold(0.0, f32::max)
 }
 

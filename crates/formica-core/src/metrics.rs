@@ -61,13 +61,7 @@ pub fn attached_discs(world: &World, obj: usize) -> Vec<(Vec2, f32)> {
 /// part of the object's own convex hull outside the object (it moves with the object); the
 /// convexity is measured on the pseudo object and the hull of the pseudo object.
 pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas {
-    let pose = world.object_pose(obj);
-    let mut pts: Vec<Vec2> = world.objects[obj]
-        .outlines()
-        .into_iter()
-        .flatten()
-        .map(|p| pose.world_from_local(p))
-        .collect();
+    let mut pts: Vec<Vec2> = world.object_outlines(obj).into_iter().flatten().collect();
     let object_hull = convex_hull(&pts);
     for (c, r) in discs {
         for k in 0..24 {

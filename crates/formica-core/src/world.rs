@@ -518,6 +518,16 @@ impl World {
         self.physics.pose(self.objects[i].body)
     }
 
+    /// Outlines of object `i`'s parts in the world frame (discs as 24-gons).
+    pub fn object_outlines(&self, i: usize) -> Vec<Vec<Vec2>> {
+        let pose = self.object_pose(i);
+        let mut outlines = self.objects[i].outlines();
+        for p in outlines.iter_mut().flatten() {
+            *p = pose.world_from_local(*p);
+        }
+        outlines
+    }
+
     /// Centre of mass of object `i`.
     pub fn object_center(&self, i: usize) -> Vec2 {
         self.physics.center_of_mass(self.objects[i].body)

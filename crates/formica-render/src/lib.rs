@@ -117,10 +117,9 @@ pub fn draw(world: &World, frame: &Frame, overlay: &Overlay<'_>) -> Pixmap {
 
     // Objects.
     for (i, o) in world.objects.iter().enumerate() {
-        let pose = world.object_pose(i);
         let fill = rgb(o.color.rgb());
-        for outline in o.outlines() {
-            if let Some(p) = polygon(frame, outline.into_iter().map(|v| pose.world_from_local(v))) {
+        for outline in world.object_outlines(i) {
+            if let Some(p) = polygon(frame, outline) {
                 pm.fill_path(&p, &fill, FillRule::Winding, id, None);
                 pm.stroke_path(&p, &rgb([20, 60, 20]), &thin, id, None);
             }
@@ -230,12 +229,7 @@ pub fn occlusion_zones(world: &World, sensor_height: f32) -> Vec<Vec<Vec2>> {
                 None => l + d * (far / len).max(1.0),
             }
         };
-        let pose = world.object_pose(i);
-        for outline in o.outlines() {
-            let pts: Vec<Vec2> = outline
-                .into_iter()
-                .map(|v| pose.world_from_local(v))
-                .collect();
+        for pts in world.object_outlines(i) {
             if pts.len() < 3 {
                 continue;
             }
