@@ -806,10 +806,10 @@ impl Scenario {
         if !(s.run.duration_s > 0.0) {
             return Err(top("run.duration_s: expected a positive number"));
         }
-        if let Some(path) = toml::Value::try_from(s)
-            .ok()
-            .and_then(|v| non_finite_path(&v, String::new()))
-        {
+        // Fail closed: the checks below rely on every number being finite.
+        let values = toml::Value::try_from(s)
+            .map_err(|e| top(&format!("internal error re-reading the scenario: {e}")))?;
+        if let Some(path) = non_finite_path(&values, String::new()) {
             // Too large for 32 bits (a `nan` or `inf` literal is caught while parsing).
             let item = |list: &str, i: usize| match list {
                 "objects" => s.objects.get(i).map(Spanned::span),
@@ -827,39 +827,22 @@ impl Scenario {
                 .unwrap_or(0..0);
             return Err(self.error_at(span, format!("{path}: expected a finite number")));
         }
-        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
-        if !finite(&s.arena.size) || !finite(&s.arena.center) {
-            return Err(top("arena: expected finite numbers"));
-        }
         for (i, w) in s.walls.iter().enumerate() {
             let ws = w.get_ref();
-            let ok = finite(&ws.at)
-                && finite(&ws.size)
-                && finite(&[ws.yaw_deg, ws.height])
-                && ws.size[0] > 0.0
-                && ws.size[1] > 0.0
-                && ws.height > 0.0;
-            if !ok {
+            // Every number is finite by now (checked above for the whole file).
+            if !(ws.size[0] > 0.0 && ws.size[1] > 0.0 && ws.height > 0.0) {
                 return Err(self.error_at(
                     w.span(),
-                    format!(
-                        "walls[{i}]: expected a finite `at` and `yaw_deg`, a positive `size` and `height`"
-                    ),
+                    format!("walls[{i}]: expected a positive `size` and `height`"),
                 ));
             }
         }
         for (i, l) in s.lights.iter().enumerate() {
             let ls = l.get_ref();
-            let ok = finite(&ls.at)
-                && finite(&[ls.height, ls.intensity])
-                && ls.height >= 0.0
-                && ls.intensity > 0.0;
-            if !ok {
+            if !(ls.height >= 0.0 && ls.intensity > 0.0) {
                 return Err(self.error_at(
                     l.span(),
-                    format!(
-                        "lights[{i}]: expected a finite `at`, `height` >= 0 and `intensity` > 0"
-                    ),
+                    format!("lights[{i}]: expected `height` >= 0 and `intensity` > 0"),
                 ));
             }
         }
