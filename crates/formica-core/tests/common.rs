@@ -10,6 +10,17 @@ pub fn scenario(body: &str) -> Scenario {
     Scenario::parse(&text, "test.toml").unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The text of shipped scenario `name` (a file in `scenarios/`).
+pub fn shipped_text(name: &str) -> String {
+    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
+}
+
+/// Shipped scenario `name`, parsed and checked.
+pub fn shipped(name: &str) -> Scenario {
+    Scenario::parse(&shipped_text(name), name).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// A run of `sc` with the given seed.
 pub fn start(sc: &Scenario, seed: u64) -> Run {
     let opts = RunOptions {

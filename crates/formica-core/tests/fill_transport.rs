@@ -2,14 +2,9 @@
 //! object to the goal, on the shipped scenarios.
 
 mod common;
-use common::start;
+use common::{shipped, shipped_text, start};
 
 use formica::{Outcome, Scenario};
-
-fn shipped(name: &str) -> Scenario {
-    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
-    Scenario::load(path.as_ref()).unwrap_or_else(|e| panic!("{e}"))
-}
 
 /// Runs `name` with `seed` to the end and checks the whole mission: robots attached inside the
 /// cavity (the pseudo object is clearly more convex), then the object reached the goal.
@@ -60,11 +55,7 @@ fn fill_transport_fills_and_delivers_the_arc() {
 fn a_crowd_jammed_around_a_small_object_still_delivers_it() {
     // Queiroz & MacRae's protocol with 30 robots and their 0.4 m disc: the fillers ring the
     // disc two deep and none can complete a lap, so without the stall rule nobody ever pushes.
-    let text = std::fs::read_to_string(format!(
-        "{}/../../scenarios/seed-transport.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap_or_else(|e| panic!("{e}"));
+    let text = shipped_text("seed-transport.toml");
     let qm = |stall_s: f32, duration_s: f32| {
         let sets = [
             ("lights.0.at", "[1.0, 1.0]"),

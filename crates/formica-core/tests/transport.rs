@@ -1,14 +1,9 @@
 //! Occlusion-based transport (`occlusion` controller) on the shipped scenarios.
 
 mod common;
-use common::start;
+use common::{shipped, shipped_text, start};
 
 use formica::{Outcome, Overrides, Scenario};
-
-fn shipped(name: &str) -> Scenario {
-    let path = format!("{}/../../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
-    Scenario::load(path.as_ref()).unwrap_or_else(|e| panic!("{e}"))
-}
 
 /// What the object's distance to the goal did during a run, from the first tick a robot
 /// pushed on.
@@ -108,12 +103,7 @@ fn convex_objects_get_closer_to_the_goal_in_most_ticks_once_pushed() {
 
 #[test]
 fn camera_robots_transport_too() {
-    let text = std::fs::read_to_string(format!(
-        "{}/../../scenarios/seed-transport.toml",
-        env!("CARGO_MANIFEST_DIR")
-    ))
-    .unwrap_or_else(|e| panic!("{e}"))
-    .replace(
+    let text = shipped_text("seed-transport.toml").replace(
         "controller = \"occlusion\"",
         "controller = \"occlusion\"\nparams = { perception = \"camera\" }",
     );
