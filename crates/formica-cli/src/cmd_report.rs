@@ -175,7 +175,7 @@ fn mean_ci(xs: &[f64]) -> Option<Estimate> {
     let n = xs.len() as f64;
     let m = xs.iter().sum::<f64>() / n;
     let sd = if xs.len() > 1 {
-        (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+        (xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt()
     } else {
         0.0
     };

@@ -4,6 +4,7 @@
 //! decomposition, hulls, point tests) is done by parry2d; this module only adapts it to the
 //! shapes that scenario files describe.
 
+use crate::ops;
 use rapier2d::parry::shape::{Compound, SharedShape, TriMesh};
 use rapier2d::parry::transformation::convex_hull as convex_hull2;
 use serde::{Deserialize, Serialize};
@@ -33,12 +34,12 @@ impl Pose {
     }
     /// Transforms a point given in this pose's frame to the world frame.
     pub fn world_from_local(&self, p: Vec2) -> Vec2 {
-        let (s, c) = self.theta.sin_cos();
+        let (s, c) = ops::sin_cos(self.theta);
         Vec2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
     }
     /// Transforms a world point into this pose's frame.
     pub fn local_from_world(&self, p: Vec2) -> Vec2 {
-        let (s, c) = self.theta.sin_cos();
+        let (s, c) = ops::sin_cos(self.theta);
         let d = Vec2::new(p.x - self.x, p.y - self.y);
         Vec2::new(c * d.x + s * d.y, -s * d.x + c * d.y)
     }
@@ -177,7 +178,7 @@ fn regular_outline(n: usize, r: f32) -> Vec<Vec2> {
     (0..n)
         .map(|i| {
             let a = std::f32::consts::TAU * i as f32 / n as f32;
-            Vec2::new(r * a.cos(), r * a.sin())
+            Vec2::new(r * ops::cos(a), r * ops::sin(a))
         })
         .collect()
 }

@@ -7,6 +7,7 @@
 
 use crate::experiment::{LoopFunctions, Outcome, RunResult};
 use crate::geometry::{convex_hull, Vec2};
+use crate::ops;
 use crate::scenario::Scenario;
 use crate::world::World;
 use rapier2d::parry::utils::point_in_convex_poly2d;
@@ -66,7 +67,7 @@ pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas
     for (c, r) in discs {
         for k in 0..24 {
             let a = std::f32::consts::TAU * k as f32 / 24.0;
-            pts.push(*c + Vec2::new(a.cos(), a.sin()) * *r);
+            pts.push(*c + ops::unit(a) * *r);
         }
     }
     let hull = convex_hull(&pts);

@@ -6,6 +6,7 @@
 //! most `mu * m * g` of force (Coulomb friction), so that one robot cannot move what a team can.
 
 use crate::geometry::{Pose, Vec2};
+use crate::ops;
 use crate::robot::RobotModel;
 use rapier2d::prelude::*;
 
@@ -307,7 +308,7 @@ impl Physics {
         let heading = b.rotation().angle();
         let frame = rapier2d::math::Pose::new(b.translation(), heading);
         if !free && !touching {
-            let target = Vec2::new(heading.cos(), heading.sin()) * v;
+            let target = ops::unit(heading) * v;
             let mut dv = target - b.linvel();
             let cap = model.max_force / model.mass * dt;
             if dv.length() > cap {
@@ -350,7 +351,7 @@ impl Physics {
         for &(body, jh) in &self.friction_joints {
             let v = self.world.bodies[body].linvel();
             if v.length_squared() > 1e-12 {
-                let angle = v.y.atan2(v.x);
+                let angle = ops::angle_of(v);
                 if let Some(j) = self.world.impulse_joints.get_mut(jh, false) {
                     j.data
                         .set_local_frame1(rapier2d::math::Pose::new(Vec2::ZERO, angle));

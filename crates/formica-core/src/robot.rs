@@ -2,6 +2,7 @@
 //!
 //! Figures come from ARGoS 3 and its Khepera IV plugin (see `shared/reference/robots.md`).
 
+use crate::ops;
 use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
 
@@ -56,7 +57,7 @@ impl ProximityCurve {
                 if d < near {
                     1.0
                 } else {
-                    a * (-b * d).exp() - c
+                    a * ops::exp(-b * d) - c
                 }
             }
             ProximityCurve::Inverse { near, k, e } => {
@@ -238,7 +239,7 @@ impl RobotModel {
         }
         let d = distance / intensity;
         if d <= 2.5 {
-            (-2.0 * d).exp()
+            ops::exp(-2.0 * d)
         } else {
             0.0
         }
@@ -254,7 +255,7 @@ mod tests {
         let m = RobotModel::khepera4();
         let r = |d| m.proximity_curve.reading(d, m.proximity_range);
         assert_eq!(r(0.02), 1.0);
-        assert!((r(0.06) - (4.14 * (-33.0f32 * 0.06).exp() - 0.085)).abs() < 1e-6);
+        assert!((r(0.06) - (4.14 * ops::exp(-33.0f32 * 0.06) - 0.085)).abs() < 1e-6);
         assert_eq!(r(0.13), 0.0);
         // Monotone decreasing over the range.
         let mut last = 1.0;

@@ -12,11 +12,11 @@
 //! Each can carry seeded Gaussian noise.
 
 use crate::geometry::{wrap_angle, Pose, Vec2};
+use crate::ops;
 use crate::physics::{Nearby, Physics, Tag};
 use crate::robot::RobotModel;
 use crate::scenario::{Color, SensorOptions};
 use rand::Rng;
-use rand_distr::{Distribution, Normal};
 
 /// One coloured blob seen by the camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -144,14 +144,7 @@ pub struct Scratch {
 }
 
 fn noisy(v: f32, sd: f32, rng: &mut impl Rng) -> f32 {
-    if sd > 0.0 {
-        match Normal::new(0.0f32, sd) {
-            Ok(n) => v + n.sample(rng),
-            Err(_) => v,
-        }
-    } else {
-        v
-    }
+    ops::gaussian(v, sd, rng)
 }
 
 /// Computes one robot's readings in place.
@@ -198,7 +191,7 @@ pub fn sense(
         if others {
             for (i, a) in model.proximity_angles.iter().enumerate() {
                 let th = pose.theta + a;
-                let dir = Vec2::new(th.cos(), th.sin());
+                let dir = ops::unit(th);
                 let hit = ctx
                     .physics
                     .cast_local(&scratch.near, Some(me), center, dir, reach);
@@ -263,7 +256,7 @@ pub fn sense(
                 }
             }
             if !blocked {
-                let bearing = wrap_angle(to.y.atan2(to.x) - pose.theta);
+                let bearing = wrap_angle(ops::angle_of(to) - pose.theta);
                 model.spread_light(bearing, value, &mut out.light);
             }
         }
@@ -314,7 +307,7 @@ pub fn sense(
             if !visible {
                 continue;
             }
-            let bearing = to.y.atan2(to.x);
+            let bearing = ops::angle_of(to);
             let distance = dist;
             out.blobs.push(Blob {
                 bearing: wrap_angle(noisy(bearing - pose.theta, opts.camera_noise, rng)),

@@ -2,6 +2,7 @@
 
 mod common;
 use common::*;
+use formica::ops;
 use proptest::prelude::*;
 
 fn box_displacement(robots: &str, seconds: u32) -> f32 {
@@ -68,7 +69,7 @@ fn robots_at_full_speed_into_walls_stay_inside() {
         .map(|k| {
             let a = k as f32 * 22.5;
             let r = a.to_radians();
-            [r.cos() * 1.0, r.sin() * 1.0, a]
+            [ops::cos(r) * 1.0, ops::sin(r) * 1.0, a]
         })
         .collect();
     let sc = scenario(&pushers(&poses, 5.0));

@@ -2,6 +2,7 @@
 //! light and its radius, robots with heading and LED colour. Pure Rust, no system libraries.
 
 use formica::geometry::Vec2;
+use formica::ops;
 use formica::world::World;
 use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
@@ -106,7 +107,7 @@ pub fn draw(world: &World, frame: &Frame, overlay: &Overlay<'_>) -> Pixmap {
 
     // Walls.
     for w in &world.walls {
-        let (s, c) = w.yaw.sin_cos();
+        let (s, c) = ops::sin_cos(w.yaw);
         let h = w.size / 2.0;
         let corners = [(-h.x, -h.y), (h.x, -h.y), (h.x, h.y), (-h.x, h.y)]
             .map(|(x, y)| w.center + Vec2::new(c * x - s * y, s * x + c * y));
@@ -162,7 +163,7 @@ pub fn draw(world: &World, frame: &Frame, overlay: &Overlay<'_>) -> Pixmap {
             pm.fill_path(&p, &rgb(body_color), FillRule::Winding, id, None);
             pm.stroke_path(&p, &rgb([30, 30, 30]), &thin, id, None);
         }
-        let tip = c + Vec2::new(pose.theta.cos(), pose.theta.sin()) * rad;
+        let tip = c + ops::unit(pose.theta) * rad;
         let mut pb = PathBuilder::new();
         let (x0, y0) = frame.px(c);
         let (x1, y1) = frame.px(tip);

@@ -3,6 +3,7 @@
 
 use formica::experiment::{Run, RunOptions};
 use formica::geometry::Vec2;
+use formica::ops;
 use formica::physics::{Nearby, Tag};
 use formica::robot::ModelKind;
 use formica::scenario::Color;
@@ -342,7 +343,7 @@ impl Sim {
             .walls
             .iter()
             .map(|wl| {
-                let (s, c) = wl.yaw.sin_cos();
+                let (s, c) = ops::sin_cos(wl.yaw);
                 let h = wl.size / 2.0;
                 [(-h.x, -h.y), (h.x, -h.y), (h.x, h.y), (-h.x, h.y)]
                     .iter()
@@ -505,7 +506,7 @@ fn proximity_rays(w: &World, i: usize, near: &mut Vec<Nearby>) -> Vec<Option<f32
         .iter()
         .map(|a| {
             let th = pose.theta + a;
-            let dir = Vec2::new(th.cos(), th.sin());
+            let dir = ops::unit(th);
             w.physics
                 .cast_local(near, Some(Tag::Robot(i)), center, dir, reach)
                 .map(|(_, t)| t)

@@ -32,6 +32,7 @@ use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, 
 use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
 use crate::controllers::occlusion::{self, Occlusion};
 use crate::geometry::wrap_angle;
+use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use serde::Deserialize;
@@ -226,7 +227,7 @@ impl FillTransport {
             return;
         };
         let to = c - r.pose.position();
-        let centre_dir = to.y.atan2(to.x);
+        let centre_dir = ops::angle_of(to);
         if wrap_angle(centre_dir - goal).abs() <= self.occluded_within {
             return;
         }
@@ -274,7 +275,7 @@ impl FillTransport {
         let centre = r.beacon;
         let target = centre.map(|c| {
             let to = c - r.pose.position();
-            wrap_angle(to.y.atan2(to.x) - r.pose.theta)
+            wrap_angle(ops::angle_of(to) - r.pose.theta)
         });
         if self.pushing_now {
             if let Some(b) = target {
@@ -315,7 +316,7 @@ impl Controller for FillTransport {
             let centre = r.beacon;
             let target = centre.map(|c| {
                 let to = c - r.pose.position();
-                wrap_angle(to.y.atan2(to.x) - r.pose.theta)
+                wrap_angle(ops::angle_of(to) - r.pose.theta)
             });
             let act = self.filler.step_guided(r, rng, target, centre);
             let st = self.filler.fill_state();

@@ -39,6 +39,7 @@ use crate::controller::{
     parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
 };
 use crate::geometry::{wrap_angle, Vec2};
+use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
@@ -360,7 +361,7 @@ impl Filler {
             if *v <= self.p.noise_floor {
                 continue;
             }
-            let dir = Vec2::new(a.cos(), a.sin());
+            let dir = ops::unit(*a);
             if wrap_angle(*a).abs() < 0.88 {
                 out.front = out.front.max(*v);
             }
@@ -370,7 +371,7 @@ impl Filler {
                         return false;
                     }
                     let centre = b.distance + rad;
-                    let half = (rad / centre).min(1.0).asin() + 0.15;
+                    let half = ops::asin((rad / centre).min(1.0)) + 0.15;
                     wrap_angle(a - b.bearing).abs() <= half
                 });
             if neighbour {
@@ -409,7 +410,7 @@ impl Filler {
 
     /// Left-hand edge following on object-like readings; anything ahead stops forward motion.
     fn follow(&self, pc: &Percept) -> Actuation {
-        let beta = pc.obj.y.atan2(pc.obj.x);
+        let beta = ops::angle_of(pc.obj);
         let err = wrap_angle(beta - FRAC_PI_2);
         let mut turn =
             self.p.turn_gain * err + self.p.follow_gain * (self.p.follow_reading - pc.obj_max);
@@ -429,7 +430,7 @@ impl Filler {
                 let fwd = if b.abs() > 1.2 {
                     0.0
                 } else {
-                    self.p.speed * b.cos().max(0.0)
+                    self.p.speed * ops::cos(b).max(0.0)
                 };
                 (fwd, self.p.turn_gain * b)
             }
@@ -480,7 +481,7 @@ impl Filler {
         match (self.touched, centre) {
             (true, Some(c)) => {
                 let d = r.pose.position() - c;
-                let a = d.y.atan2(d.x);
+                let a = ops::angle_of(d);
                 if let Some(last) = self.last_angle {
                     self.circled += wrap_angle(a - last);
                 }
@@ -575,16 +576,16 @@ impl Filler {
                     // Creep into the spot, swinging the heading by `swing` so that the ring
                     // samples it at all offsets.
                     let beta = if pc.obj.length() > 1e-6 {
-                        pc.obj.y.atan2(pc.obj.x)
+                        ops::angle_of(pc.obj)
                     } else {
                         0.0
                     };
                     let swing = if self.state == FillState::Check {
-                        self.p.swing * (TAU * t / self.p.hold_s.max(0.5)).sin()
+                        self.p.swing * ops::sin(TAU * t / self.p.hold_s.max(0.5))
                     } else {
                         0.0
                     };
-                    let fwd = self.p.creep_speed * beta.cos().max(0.0);
+                    let fwd = self.p.creep_speed * ops::cos(beta).max(0.0);
                     let mut a = self.twist(fwd, 0.5 * self.p.turn_gain * (beta + swing));
                     // Attach once snug (pressed on more sensors than a check needs), or after
                     // half the time-out if the robot cannot get closer.
@@ -632,9 +633,9 @@ impl Filling {
 pub fn light_bearing(r: &Readings, layout: &SensorLayout) -> Option<f32> {
     let mut v = Vec2::ZERO;
     for (l, a) in r.light.iter().zip(&layout.light_angles) {
-        v += Vec2::new(a.cos(), a.sin()) * *l;
+        v += ops::unit(*a) * *l;
     }
-    (v.length() > 1e-6).then(|| v.y.atan2(v.x))
+    (v.length() > 1e-6).then(|| ops::angle_of(v))
 }
 
 impl Controller for Filling {

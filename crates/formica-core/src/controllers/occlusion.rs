@@ -42,6 +42,7 @@
 
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
 use crate::geometry::{wrap_angle, Vec2};
+use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
@@ -353,7 +354,7 @@ impl Occlusion {
     fn centre_bearing(&self, r: &Readings) -> Option<(f32, f32)> {
         let c = r.beacon?;
         let to = c - r.pose.position();
-        Some((wrap_angle(to.y.atan2(to.x) - r.pose.theta), to.length()))
+        Some((wrap_angle(ops::angle_of(to) - r.pose.theta), to.length()))
     }
 
     /// The object's surface; the summed proximity vector (robot frame) of everything else; and
@@ -387,7 +388,7 @@ impl Occlusion {
                     if is_object {
                         continue;
                     }
-                    let dir = Vec2::new(a.cos(), a.sin()) * *v;
+                    let dir = ops::unit(*a) * *v;
                     other += dir;
                     let is_robot = r.blobs.iter().any(|b| {
                         b.is_robot
@@ -412,7 +413,7 @@ impl Occlusion {
                     if *v <= 0.0 {
                         continue;
                     }
-                    let dir = Vec2::new(a.cos(), a.sin()) * *v;
+                    let dir = ops::unit(*a) * *v;
                     if near && wrap_angle(a - cb).abs() <= FRAC_PI_2 + 0.1 {
                         obj += dir;
                         best = best.max(*v);
@@ -428,7 +429,7 @@ impl Occlusion {
                     }
                 } else if best > 0.0 {
                     Surface {
-                        bearing: obj.y.atan2(obj.x),
+                        bearing: ops::angle_of(obj),
                         gap: (1.0 - best) * range,
                     }
                 } else {
@@ -496,7 +497,7 @@ impl Occlusion {
         match self.goal_fix.estimate() {
             Some(g) if (g - here).length() > 0.05 => {
                 let d = g - here;
-                Some(d.y.atan2(d.x))
+                Some(ops::angle_of(d))
             }
             _ => self.goal_dir,
         }
@@ -541,7 +542,7 @@ impl Occlusion {
                 let fwd = if b.abs() > 1.2 {
                     0.0
                 } else {
-                    self.p.approach_speed * b.cos().max(0.0)
+                    self.p.approach_speed * ops::cos(b).max(0.0)
                 };
                 // Something other than the object ahead: do not shove it, go round.
                 let fwd = if other.x > self.p.avoid_threshold {
@@ -596,7 +597,7 @@ struct GoalFix {
 
 impl GoalFix {
     fn add(&mut self, p: Vec2, dir: f32) {
-        let n = Vec2::new(-dir.sin(), dir.cos());
+        let n = Vec2::new(-ops::sin(dir), ops::cos(dir));
         let c = n.dot(p);
         self.a[0] += n.x * n.x;
         self.a[1] += n.x * n.y;
@@ -621,7 +622,7 @@ impl GoalFix {
         );
         let (p, dir) = self.last?;
         let d = g - p;
-        (d.length() > 1e-3 && wrap_angle(d.y.atan2(d.x) - dir).abs() < 0.5).then_some(g)
+        (d.length() > 1e-3 && wrap_angle(ops::angle_of(d) - dir).abs() < 0.5).then_some(g)
     }
 }
 

@@ -2,6 +2,7 @@
 //! reads proximity and light every tick.
 
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
+use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
@@ -75,8 +76,8 @@ impl Controller for RandomWalk {
         // Sum of proximity vectors: where the obstacles are.
         let (mut sx, mut sy) = (0.0f32, 0.0f32);
         for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
-            sx += v * a.cos();
-            sy += v * a.sin();
+            sx += v * ops::cos(*a);
+            sy += v * ops::sin(*a);
         }
         let strength = (sx * sx + sy * sy).sqrt();
         let light: f32 = r.light.iter().sum();
