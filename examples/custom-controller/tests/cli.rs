@@ -233,6 +233,66 @@ fn sweep_stores_the_end_of_run_fields_and_export_and_report_show_them() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The exported CSV of store `db`, rows without their `wall_time_s` cell.
+fn export_without_wall_time(db: &std::path::Path) -> Vec<String> {
+    let o = bin()
+        .args(["export", "--csv", "-"])
+        .arg(db)
+        .output()
+        .expect("runs");
+    let csv = ok(&o);
+    let header: Vec<&str> = csv.lines().next().unwrap_or("").split(',').collect();
+    let wall = header
+        .iter()
+        .position(|c| *c == "wall_time_s")
+        .expect("a wall_time_s column");
+    csv.lines()
+        .map(|l| {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            cells.remove(wall);
+            cells.join(",")
+        })
+        .collect()
+}
+
+#[test]
+fn sharded_sweeps_merge_with_their_end_of_run_fields() {
+    let dir = tmp("shards");
+    let run = |args: &[&str], db: &std::path::Path| {
+        let o = bin()
+            .args(["sweep", "--quiet"])
+            .args(args)
+            .arg("--db")
+            .arg(db)
+            .arg(here("sweep.toml"))
+            .output()
+            .expect("runs");
+        ok(&o);
+    };
+    let (whole, a, b, merged) = (
+        dir.join("whole.db"),
+        dir.join("a.db"),
+        dir.join("b.db"),
+        dir.join("merged.db"),
+    );
+    run(&[], &whole);
+    run(&["--shard", "0/2"], &a);
+    run(&["--shard", "1/2"], &b);
+    let o = bin()
+        .arg("merge")
+        .args([&merged, &a, &b])
+        .output()
+        .expect("runs");
+    ok(&o);
+    let rows = export_without_wall_time(&merged);
+    assert!(
+        rows[0].ends_with("gather_time_s,gathered_fraction"),
+        "{rows:?}"
+    );
+    assert_eq!(rows, export_without_wall_time(&whole));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// One HTTP request to the server at `authority`; the whole answer.
 fn http(authority: &str, method: &str, path: &str) -> Result<String, String> {
     let mut s = std::net::TcpStream::connect(authority).map_err(|e| e.to_string())?;
