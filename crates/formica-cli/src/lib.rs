@@ -73,6 +73,7 @@ enum Command {
 }
 
 /// An error with the exit code it deserves: 2 for bad input, 1 otherwise.
+#[derive(Debug)]
 pub(crate) enum CliError {
     /// The user's input (scenario file, arguments) is wrong.
     Input(String),

@@ -499,3 +499,64 @@ pub fn columns_of(conn: &Connection, db: &str) -> Result<Vec<String>, CliError> 
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(seed: u64, extra: serde_json::Value) -> Row {
+        let extra = extra.as_object().cloned().unwrap_or_default();
+        Row {
+            trial: seed as usize,
+            params: "{}".into(),
+            values: vec![("robots.0.count".into(), toml::Value::Integer(3))],
+            result: RunResult {
+                scenario: "s".into(),
+                seed,
+                extra: extra.into_iter().collect(),
+                ..RunResult::default()
+            },
+            trajectory: None,
+        }
+    }
+
+    #[test]
+    fn end_of_run_fields_become_columns_and_read_back() {
+        let dir = std::env::temp_dir().join(format!("formica-store-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let path = dir.join("t.db");
+        let mut store = Store::open(&path).unwrap();
+        store.set_meta("keys", r#"["robots.0.count"]"#).unwrap();
+        store.ensure_columns(&["robots.0.count".into()]).unwrap();
+        store
+            .insert(&row(
+                1,
+                serde_json::json!({ "b": 1.5, "a": [1, 2], "flag": true }),
+            ))
+            .unwrap();
+        store.insert(&row(2, serde_json::json!({}))).unwrap();
+        store
+            .insert(&row(3, serde_json::json!({ "c": 7 })))
+            .unwrap();
+        assert_eq!(store.extra_columns().unwrap(), ["a", "b", "flag", "c"]);
+        let back = store.results().unwrap();
+        let extra = |i: usize| serde_json::to_value(&back[i].result.extra).unwrap();
+        assert_eq!(
+            extra(0),
+            serde_json::json!({ "a": "[1,2]", "b": 1.5, "flag": 1 })
+        );
+        assert_eq!(extra(1), serde_json::json!({}));
+        assert_eq!(extra(2), serde_json::json!({ "c": 7 }));
+        // A field named like a varied key is refused, not stored under the key's column.
+        let e = store
+            .insert(&row(4, serde_json::json!({ "robots.0.count": 1 })))
+            .err()
+            .map(|e| match e {
+                CliError::Input(m) => m,
+                CliError::Other(e) => e.to_string(),
+            });
+        assert!(e.is_some_and(|m| m.contains("has the name of a varied key")));
+        drop(store);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
