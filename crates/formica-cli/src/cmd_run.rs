@@ -38,6 +38,9 @@ pub struct Args {
     /// Worker threads for `--seeds` (default: all cores). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Run even if the physics step is too coarse for contacts to hold (see `formica check`).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Parses a seed range `A..B` (inclusive; `A..=B` also accepted).
@@ -115,6 +118,12 @@ fn describe(r: &RunResult) -> String {
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
     let sc = load(&a.scenario, &a.set)?;
+    if let (Some(w), false) = (sc.physics_warning(), a.force) {
+        return Err(CliError::Input(format!(
+            "{}: {w}; --force runs it anyway",
+            sc.file
+        )));
+    }
     if let Some(c) = &a.controller {
         if !formica::controllers::NAMES.contains(&c.as_str()) {
             return Err(CliError::Input(format!(
