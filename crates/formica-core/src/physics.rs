@@ -263,17 +263,14 @@ impl Physics {
         self.world.integration_parameters.dt = dt;
     }
 
-    /// The fastest any body moves now (m/s): centre speed plus turning speed at its rim.
+    /// The fastest any body's outline moves now (m/s): a robot's centre (a disc turning about
+    /// its centre sweeps nothing), an object's centre plus its turning at its farthest point.
     pub fn fastest_speed(&self) -> f32 {
         let rim = |fj: &FloorJoint, reach: f32| {
             let b = &self.world.bodies[fj.body];
             b.linvel().length() + b.angvel().abs() * reach
         };
-        let robots = self
-            .drives
-            .iter()
-            .zip(&self.robots)
-            .map(|(fj, (_, r))| rim(fj, *r));
+        let robots = self.drives.iter().map(|fj| rim(fj, 0.0));
         let objects = self
             .friction
             .iter()

@@ -8,7 +8,6 @@ use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
 use crate::scenario::{
     steps_for, Color, Placement, Scenario, ScenarioError, SensorOptions, Substeps,
-    MAX_STEP_FRACTION,
 };
 use crate::sensors::{sense, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds};
 use rand::{Rng, SeedableRng};
@@ -145,8 +144,6 @@ pub struct World {
     fixed_substeps: Option<u32>,
     /// Smallest robot radius (m), for the automatic sub-steps.
     smallest_radius: f32,
-    /// Largest top speed of the robot models (m/s).
-    top_speed: f32,
     /// Seed in use.
     pub seed: u64,
     /// Arena centre and size.
@@ -337,7 +334,6 @@ impl World {
                 Substeps::Auto => None,
             },
             smallest_radius,
-            top_speed: sc.speed_and_radius().map_or(0.0, |(v, _)| v),
             seed,
             arena: (c, Vec2::new(w, h)),
             near: Vec::new(),
@@ -372,39 +368,40 @@ impl World {
     /// Chooses this tick's physics steps (fixed, or enough for the fastest body or wheel
     /// command; see [`Substeps::Auto`]) and sets the step up for them.
     fn plan_substeps(&mut self) -> u32 {
+        let commanded = self
+            .robots
+            .iter()
+            .filter(|r| r.body.is_some())
+            .map(|r| {
+                // A disc turning about its centre sweeps nothing: its centre's speed counts.
+                let top = self.groups[r.group].model.max_speed;
+                let (l, rt) = (
+                    r.action.left.clamp(-top, top),
+                    r.action.right.clamp(-top, top),
+                );
+                (0.5 * (l + rt)).abs()
+            })
+            .fold(0.0, f32::max);
+        let speed = commanded.max(self.physics.fastest_speed());
         let n = self.fixed_substeps.unwrap_or_else(|| {
-            let commanded = self
-                .robots
-                .iter()
-                .filter(|r| r.body.is_some())
-                .map(|r| {
-                    let top = self.groups[r.group].model.max_speed;
-                    r.action.left.abs().max(r.action.right.abs()).min(top)
-                })
-                .fold(0.0, f32::max);
-            let speed = commanded.max(self.physics.fastest_speed());
             if self.smallest_radius > 0.0 {
                 steps_for(speed, self.smallest_radius, self.tick_hz as f32)
             } else {
                 1
             }
         });
+        let dt = self.tick_s / n as f32;
         if n != self.substeps {
             self.substeps = n;
-            let dt = self.tick_s / n as f32;
             self.physics.set_dt(dt);
-            // Two bodies close in by up to twice the most one moves per step: contacts must be
-            // found before they touch.
-            let per_step = match self.fixed_substeps {
-                Some(_) => self.top_speed * dt,
-                None => MAX_STEP_FRACTION * self.smallest_radius,
-            };
-            self.physics.set_contact_prediction(2.5 * per_step);
             // About eight solver sub-steps per tick, at least two per physics step (four,
             // rapier's default, with one step per tick).
             self.physics
                 .set_solver_iterations(8u32.div_ceil(n).clamp(2, 4) as usize);
         }
+        // Two bodies close in by up to twice the most one moves per step (no body outruns the
+        // fastest body or command): contacts must be found before they touch.
+        self.physics.set_contact_prediction(2.5 * speed * dt);
         n
     }
 
