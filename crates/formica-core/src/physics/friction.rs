@@ -134,6 +134,18 @@ impl Footprint {
         if !(self.f_max > 0.0 && h > 0.0 && m > 0.0 && i > 0.0) {
             return still;
         }
+        // The limit set contains the double cone |f| / f_max + |tau| / tau_max <= 1 (the hull of
+        // its pure translations and rotations): a stopping wrench inside it sticks for sure.
+        let stop = (-free.lin * (m / h), -free.ang * (i / h));
+        if stop.0.length() / self.f_max + stop.1.abs() / self.tau_max.max(f32::MIN_POSITIVE) <= 1.0
+        {
+            return Step {
+                force: stop.0,
+                torque: stop.1,
+                end: Twist::default(),
+                sticks: true,
+            };
+        }
         let h = f64::from(h);
         let prob = Problem {
             pts: &self.points,
@@ -147,14 +159,6 @@ impl Footprint {
                 f64::from(free.ang),
             ],
         };
-        // Nothing to resist: stay as is (already at rest).
-        if prob.free == [0.0; 3] {
-            return Step {
-                end: Twist::default(),
-                sticks: true,
-                ..still
-            };
-        }
         let scale = self.reach.max(1e-3);
         let mut x = [
             f64::from(guess.lin.x),
