@@ -37,7 +37,7 @@ fn fills_then_delivers(name: &str, seed: u64) {
 
 #[test]
 #[ignore = "since issue 10 attached robots keep their wheels on the floor: commanding zero, they \
-            brake with their drive force; 7 of 20 seeds still deliver the U (seed 2 times out); \
+            brake with their drive force; 8 of 20 seeds still deliver the U (seed 2 times out); \
             needs attached robots that comply or push (controllers)"]
 fn fill_transport_fills_and_delivers_the_u() {
     for seed in 1..=2 {
