@@ -33,8 +33,8 @@ overrides), ``sensors`` (which sensors to compute; default proximity, light, bea
 
 from __future__ import annotations
 
-import functools
 import math
+import os
 from typing import Any, Optional
 
 import numpy as np
@@ -64,10 +64,18 @@ _UNIT_SLOTS = ("proximity", "light", "has_beacon", "attached")
 
 
 def prepare_scenario(scenario, robots=None, set=None, sensors=DEFAULT_SENSORS):
-    """A copy of ``scenario`` (a path or a :class:`formica.Scenario`) whose robot groups all
+    """A copy of ``scenario`` (a path or a :class:`formica.Scenario`; the default
+    ``scenarios/seed-transport.toml`` also works outside the repository, from a copy inside
+    the package) whose robot groups all
     run the ``external`` controller, computing ``sensors``; ``robots`` sets
     ``robots.0.count``, ``set`` further overrides."""
-    sc = scenario.copy() if isinstance(scenario, formica.Scenario) else formica.load(scenario)
+    if isinstance(scenario, formica.Scenario):
+        sc = scenario.copy()
+    elif os.fspath(scenario) == DEFAULT_SCENARIO and not os.path.exists(DEFAULT_SCENARIO):
+        # Outside a clone of the repository: the copy compiled into the package.
+        sc = formica._formica.shipped_scenario(DEFAULT_SCENARIO)
+    else:
+        sc = formica.load(scenario)
     for key, value in (set or {}).items():
         sc.set(key, value)
     if robots is not None:

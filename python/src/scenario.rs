@@ -296,3 +296,26 @@ pub fn bench_scenario(py: Python<'_>, robots: usize, controller: String) -> PyRe
             .map_err(|e| scenario_error(py, &e))
     })
 }
+
+/// Scenario files compiled into the package, so that the environments' default scenario
+/// works outside a clone of the repository.
+const SHIPPED: &[(&str, &str)] = &[(
+    "scenarios/seed-transport.toml",
+    include_str!("../../scenarios/seed-transport.toml"),
+)];
+
+/// The shipped copy of the scenario file `path` (one of the repository's, as named from its
+/// root), or None.
+#[pyfunction]
+pub fn shipped_scenario(py: Python<'_>, path: &str) -> PyResult<Option<PyScenario>> {
+    guard(|| {
+        SHIPPED
+            .iter()
+            .find(|(name, _)| *name == path)
+            .map(|(name, text)| {
+                PyScenario::make(name.to_string(), text.to_string(), Vec::new())
+                    .map_err(|e| scenario_error(py, &e))
+            })
+            .transpose()
+    })
+}

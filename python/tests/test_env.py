@@ -79,3 +79,10 @@ def test_the_vectorised_form_steps_many_worlds_and_autoresets():
     assert venv.worlds.seeds == [104, 105, 106, 107] and venv.worlds.ticks.tolist() == [1, 1, 1, 1]
     with pytest.raises(ValueError, match=r"shape \(4, 5, 2\)"):
         venv.step(np.zeros((4, 2)))
+
+
+def test_the_default_scenario_works_outside_the_repository(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    env = fenv.parallel_env(robots=3)
+    obs, _ = env.reset(seed=1)
+    assert len(obs) == 3 and env._task.scenario.name == "seed-transport"
