@@ -61,6 +61,7 @@ __all__ = [
     "World",
     "Worlds",
     "bench_scenario",
+    "cli",
     "controllers",
     "load",
     "parse",
@@ -205,6 +206,17 @@ def read_store(db: PathLike, *, trajectories: bool = False, as_frame: Optional[b
         return _frame(rows, as_frame), _frame(samples, as_frame)
     finally:
         con.close()
+
+
+def cli(*args: Union[str, "os.PathLike[str]"]) -> None:
+    """Runs a ``formica`` subcommand in this process, with the controllers registered from
+    Python available to it: ``formica.cli("check", "my.toml")``, ``formica.cli("record",
+    "my.toml", "--out", "run.gif")``, ``formica.cli("report", "study.db", "--out", "report")``.
+    Output goes to this process's stdout and stderr; bad input raises :class:`ScenarioError`,
+    other failures ``RuntimeError``. (``serve`` runs until the process is killed: Ctrl-C is not
+    seen while it runs.)
+    """
+    _formica.command([os.fspath(a) for a in args])
 
 
 def controllers() -> list:

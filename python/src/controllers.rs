@@ -570,13 +570,14 @@ pub(crate) fn attach_of_code(code: i64) -> PyResult<AttachCommand> {
     }
 }
 
-/// Checks wheel speeds: finite numbers.
-pub(crate) fn check_wheels(left: f32, right: f32, who: &str) -> PyResult<()> {
+/// Checks wheel speeds: finite numbers (`who` names the culprit, made only on failure).
+pub(crate) fn check_wheels(left: f32, right: f32, who: impl FnOnce() -> String) -> PyResult<()> {
     if left.is_finite() && right.is_finite() {
         Ok(())
     } else {
         Err(PyValueError::new_err(format!(
-            "{who}: wheel speeds must be finite numbers (m/s), got ({left}, {right})"
+            "{}: wheel speeds must be finite numbers (m/s), got ({left}, {right})",
+            who()
         )))
     }
 }
@@ -600,7 +601,7 @@ fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
     let left: f64 = items.get_item(0)?.extract()?;
     let right: f64 = items.get_item(1)?.extract()?;
     let (left, right) = (left as f32, right as f32);
-    check_wheels(left, right, who)?;
+    check_wheels(left, right, || who.to_string())?;
     let led = if n > 2 {
         led_of(&items.get_item(2)?).map_err(|e| prefix(out.py(), e, who))?
     } else {
@@ -865,7 +866,7 @@ fn apply_batch(out: &Bound<'_, PyAny>, robots: &mut [BatchRobot<'_>], who: &str)
     }
     for (k, r) in robots.iter_mut().enumerate() {
         let (left, right) = (w[[k, 0]], w[[k, 1]]);
-        check_wheels(left, right, &format!("{who}, row {k}"))?;
+        check_wheels(left, right, || format!("{who}, row {k}"))?;
         r.action.left = left;
         r.action.right = right;
         r.state = "batched";

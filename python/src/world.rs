@@ -273,7 +273,7 @@ impl Sim {
         let mut out = Vec::with_capacity(n);
         for i in 0..n {
             let (left, right) = (wheels[2 * i], wheels[2 * i + 1]);
-            check_wheels(left, right, &format!("set_actions, robot {i}"))?;
+            check_wheels(left, right, || format!("set_actions, robot {i}"))?;
             let led = match &leds {
                 Some(c) => color_of_code(c[i])?,
                 None => Color::Off,

@@ -205,6 +205,21 @@ def test_a_sweep_runs_python_controllers_into_a_store(tmp_path):
     assert rows[0]["object_path_m"] == ref["object_path_m"] and rows[0]["ticks"] == ref["ticks"]
 
 
+def test_a_batched_controller_in_a_sweep_and_the_command_in_process(tmp_path, capfd):
+    sweep = tmp_path / "swarm.toml"
+    sweep.write_text(
+        f'scenario = "{ROOT / SEED_TRANSPORT}"\nseeds = [4]\nduration_s = 5\n'
+        '[vary]\n"robots.0.controller" = ["py-swarm", "py-wander"]\n'
+    )
+    rows = formica.sweep(sweep, as_frame=False)
+    assert [r["controller"] for r in rows] == ["py-swarm", "py-wander"]
+    assert (tmp_path / "swarm.db").exists()
+    formica.cli("check", str(ROOT / SEED_TRANSPORT))
+    assert "seed-transport" in capfd.readouterr().out
+    with pytest.raises(formica.ScenarioError, match="missing.toml: cannot read"):
+        formica.cli("check", "missing.toml")
+
+
 def test_a_bad_sweep_file_raises_scenario_error(tmp_path):
     sweep = tmp_path / "bad.toml"
     sweep.write_text('seeds = "1..2"\nscenario = "nowhere.toml"\n')
