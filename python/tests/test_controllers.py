@@ -225,3 +225,27 @@ def test_a_bad_sweep_file_raises_scenario_error(tmp_path):
     sweep.write_text('seeds = "1..2"\nscenario = "nowhere.toml"\n')
     with pytest.raises(formica.ScenarioError, match="nowhere.toml"):
         formica.sweep(sweep, db=tmp_path / "bad.db")
+
+
+def test_a_per_robot_controller_sees_its_row_of_the_readings():
+    seen = {}
+
+    class Recorder:
+        def __init__(self, layout):
+            assert layout.size == 24 and layout.names[16] == "x" and layout.slots["light"] == (8, 8)
+            assert len(layout.proximity_angles) == 8 and layout.max_speed == pytest.approx(0.8)
+
+        def step(self, r):
+            x, y, theta = r.pose
+            assert (x, y) == (r.x, r.y) and r["theta"] == theta and len(r) == 24
+            assert len(r.proximity) == 8 and r.beacon == (r.beacon_x, r.beacon_y)
+            assert r.attached is False and r.blobs == []
+            seen[round(r.time_s, 3), x] = r.vector
+            return 0.05, 0.05
+
+    formica.register_controller("py-recorder", Recorder)
+    w = formica.World(scenario("py-recorder", count=3), seed=1)
+    w.step(4)
+    rows = w.readings()
+    for row in rows:
+        np.testing.assert_array_equal(seen[round(float(row[23]), 3), float(row[16])], row)
