@@ -1,7 +1,9 @@
 //! The world: walls, objects, lights and robots built from a scenario, and the one function
 //! that holds the tick order ([`World::step`]): act, physics sub-steps, sense, control.
 
-use crate::controller::{Actuation, AttachCommand, Controller, ControllerFactory, RobotRng};
+use crate::controller::{
+    Actuation, AttachCommand, BatchController, BatchRobot, Controller, ControllerFactory, RobotRng,
+};
 use crate::geometry::{compound_shape, part_outlines, Part, Pose, Vec2};
 use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
@@ -65,12 +67,20 @@ pub struct Group {
     /// Controller name.
     pub controller: String,
     factory: ControllerFactory,
+    /// The group's batch controller, when its controller decides for all its robots at once.
+    batch: Option<Box<dyn BatchController>>,
 }
 
 impl Group {
     /// Which sensors this group's controllers read.
     pub fn needs(&self) -> SensorNeeds {
         self.factory.needs
+    }
+
+    /// Whether one batch controller decides for all the group's robots
+    /// ([`ControllerFactory::batched`]).
+    pub fn is_batched(&self) -> bool {
+        self.batch.is_some()
     }
 }
 
@@ -319,6 +329,7 @@ impl World {
                 layout,
                 sensors: grp.sensors.clone(),
                 controller: name,
+                batch: factory.make_batch(),
                 factory,
             });
         }
@@ -568,14 +579,43 @@ impl World {
         }
     }
 
-    /// Runs every released robot's controller.
+    /// Runs every released robot's controller, then each group's batch controller.
     fn control(&mut self) {
+        let groups = &mut self.groups;
         for r in &mut self.robots {
-            if r.body.is_none() {
+            if r.body.is_none() || groups[r.group].batch.is_some() {
                 continue;
             }
             r.action = r.controller.step(&r.readings, &mut r.rng);
             r.state = r.controller.state();
+        }
+        for (g, group) in groups.iter_mut().enumerate() {
+            let Some(batch) = group.batch.as_mut() else {
+                continue;
+            };
+            let mut members: Vec<BatchRobot<'_>> = self
+                .robots
+                .iter_mut()
+                .enumerate()
+                .filter(|(_, r)| r.group == g && r.body.is_some())
+                .map(|(index, r)| BatchRobot {
+                    index,
+                    readings: &r.readings,
+                    rng: &mut r.rng,
+                    action: r.action,
+                    state: r.state,
+                })
+                .collect();
+            batch.step(&mut members);
+            let decided: Vec<(usize, Actuation, &'static str)> = members
+                .iter()
+                .map(|m| (m.index, m.action, m.state))
+                .collect();
+            drop(members);
+            for (i, action, state) in decided {
+                self.robots[i].action = action;
+                self.robots[i].state = state;
+            }
         }
     }
 
