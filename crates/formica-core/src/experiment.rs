@@ -7,6 +7,13 @@ use crate::scenario::{Scenario, ScenarioError};
 use crate::world::{Overrides, World};
 use serde::{Deserialize, Serialize};
 
+/// Version of what results mean. Two builds of Formica with the same results format give the
+/// same result, bit for bit, for the same scenario and seed; any change that can move a result
+/// (physics, sensing, controllers, metrics, random streams, scenario defaults) or change what a
+/// result field means bumps it, with an entry in `CHANGELOG.md`. `formica sweep` refuses to add
+/// trials to a store written with another results format.
+pub const RESULTS_FORMAT: u32 = 1;
+
 /// How a run ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
@@ -71,6 +78,27 @@ pub struct RunResult {
     pub cavity_filled: Option<f64>,
     /// Wall-clock seconds the run took (the only field that is not deterministic).
     pub wall_time_s: f64,
+}
+
+/// How result `b` differs from `a`, field by field, leaving out the wall-clock time: one
+/// `field: a, b` line per difference, none when a replay reproduced a stored result.
+pub fn result_differences(a: &RunResult, b: &RunResult) -> Vec<String> {
+    let json = |r: &RunResult| match serde_json::to_value(r) {
+        Ok(serde_json::Value::Object(mut m)) => {
+            m.remove("wall_time_s");
+            m
+        }
+        _ => serde_json::Map::new(),
+    };
+    let (a, b) = (json(a), json(b));
+    let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let show = |v: Option<&serde_json::Value>| v.map_or_else(|| "none".into(), |v| v.to_string());
+    keys.into_iter()
+        .filter(|k| a.get(*k) != b.get(*k))
+        .map(|k| format!("{k}: {}, {}", show(a.get(k)), show(b.get(k))))
+        .collect()
 }
 
 /// One recorded sample of a trajectory.

@@ -26,6 +26,7 @@ pub mod physics;
 pub mod robot;
 pub mod scenario;
 pub mod sensors;
+pub mod timeseries;
 pub mod world;
 
 pub use experiment::{run, Outcome, RunOptions, RunResult, Trajectories};
