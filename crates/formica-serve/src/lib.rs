@@ -10,7 +10,9 @@
 //! |---|---|
 //! | `GET /` (`/index.html`), `/viewer.js`, `/viewer.css` | the page, embedded in the binary |
 //! | `GET /api/scene` | arena, walls, lights, object outlines, robot groups (JSON) |
-//! | `GET /api/state[?rays=1][&zones=1]` | time, outcome, object, path, robots (JSON) |
+//! | `GET /api/state[?rays=1][&zones=1]` | time, outcome, object, path, robots (JSON); for a replay, whether it ended as stored |
+//! | `GET /api/series` | goal distance, object speed and robots per state over time (JSON) |
+//! | `GET /api/robot?i=N` | robot N's readings, controller state, wheels and state history (JSON) |
 //! | `POST /api/play`, `/api/pause`, `/api/step[?n=N]`, `/api/speed?x=F`, `/api/restart[?seed=N]` | control; answer with the state |
 //! | `GET /api/stats` | request counters and buffer sizes of the server itself |
 //!
@@ -22,7 +24,7 @@
 pub mod http;
 pub mod sim;
 
-pub use sim::{Sim, StateQuery, MAX_STEP, PATH_CAP, SPEED_RANGE};
+pub use sim::{ReplayInfo, Sim, StateQuery, MAX_STEP, PATH_CAP, SPEED_RANGE};
 
 use http::{Method, ReadError, Request, Response};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener, TcpStream};
@@ -57,6 +59,8 @@ pub struct ServeOptions {
     pub read_timeout: Duration,
     /// Start playing at once.
     pub play: bool,
+    /// The stored trial this run replays, if any.
+    pub replay: Option<ReplayInfo>,
 }
 
 impl Default for ServeOptions {
@@ -70,6 +74,7 @@ impl Default for ServeOptions {
             queue: 32,
             read_timeout: Duration::from_secs(5),
             play: false,
+            replay: None,
         }
     }
 }
@@ -135,6 +140,8 @@ enum Control {
 enum Cmd {
     Scene(SyncSender<String>),
     State(StateQuery, SyncSender<String>),
+    Series(SyncSender<String>),
+    Robot(usize, SyncSender<Option<String>>),
     Control(Control, StateQuery, SyncSender<Result<String, Response>>),
 }
 
@@ -215,10 +222,14 @@ impl Server {
         let sim_thread = {
             let counters = counters.clone();
             let (seed, duration, play) = (opts.seed, opts.duration_s, opts.play);
+            let replay = opts.replay.clone();
             std::thread::Builder::new()
                 .name("serve-sim".into())
                 .spawn(move || match Sim::new(scenario, seed, duration) {
                     Ok(mut sim) => {
+                        if let Some(r) = replay {
+                            sim.set_replay(r);
+                        }
                         sim.set_playing(play);
                         let _ = init_tx.send(Ok(()));
                         sim_loop(sim, &cmd_rx, &counters);
@@ -351,6 +362,12 @@ fn sim_loop(mut sim: Sim, rx: &Receiver<Cmd>, counters: &Counters) {
             }
             Ok(Cmd::State(q, reply)) => {
                 let _ = reply.try_send(sim.state_json(q));
+            }
+            Ok(Cmd::Series(reply)) => {
+                let _ = reply.try_send(sim.series_json());
+            }
+            Ok(Cmd::Robot(i, reply)) => {
+                let _ = reply.try_send(sim.robot_json(i));
             }
             Ok(Cmd::Control(c, q, reply)) => {
                 let r = control(&mut sim, c).map(|()| sim.state_json(q));
@@ -496,7 +513,7 @@ fn respond(shared: &Shared, req: &Request) -> Response {
         "/" | "/index.html" => static_asset(INDEX_HTML, "text/html; charset=utf-8"),
         "/viewer.js" => static_asset(VIEWER_JS, "text/javascript; charset=utf-8"),
         "/viewer.css" => static_asset(VIEWER_CSS, "text/css; charset=utf-8"),
-        "/api/scene" | "/api/state" | "/api/stats" => {
+        "/api/scene" | "/api/state" | "/api/stats" | "/api/series" | "/api/robot" => {
             if !get {
                 return Response::error(405, "use GET").with_header("Allow", "GET, HEAD");
             }
@@ -530,6 +547,20 @@ fn api_get(shared: &Shared, req: &Request) -> Result<Response, Response> {
         "/api/scene" => {
             only(req, &[])?;
             Ok(Response::ok(JSON, ask(shared, Cmd::Scene)?))
+        }
+        "/api/series" => {
+            only(req, &[])?;
+            Ok(Response::ok(JSON, ask(shared, Cmd::Series)?))
+        }
+        "/api/robot" => {
+            only(req, &["i"])?;
+            let v = param(req, "i").ok_or_else(|| Response::error(400, "i: missing"))?;
+            let i: usize = v.parse().map_err(|_| {
+                Response::error(400, &format!("i: expected a robot number, got `{v}`"))
+            })?;
+            ask(shared, |tx| Cmd::Robot(i, tx))?
+                .map(|body| Response::ok(JSON, body))
+                .ok_or_else(|| Response::error(404, &format!("no robot {i}")))
         }
         "/api/stats" => {
             only(req, &[])?;

@@ -435,3 +435,116 @@ fn a_full_queue_answers_busy_and_recovers() {
     assert!(ok, "serves again once the idle clients are gone");
     assert!(r.handle.stats().rejected >= 1);
 }
+
+#[test]
+fn robots_can_be_inspected_and_series_grow() {
+    let r = start(seed_transport());
+    let a = r.addr();
+    let (code, body) = req(a, "POST", "/api/step?n=30");
+    assert_eq!(code, 200, "{body}");
+    let robot = json(&req(a, "GET", "/api/robot?i=3").1);
+    assert_eq!(robot["robot"], 3);
+    assert_eq!(robot["tick"], 30);
+    assert!(robot["state"].as_str().is_some_and(|s| !s.is_empty()));
+    assert!(robot["controller"].is_string());
+    // The Khepera IV's 8 proximity and 8 light sensors, readings in [0, 1].
+    for k in ["proximity", "light"] {
+        let v = robot["readings"][k].as_array().expect(k);
+        assert_eq!(v.len(), 8, "{k}");
+        assert!(v
+            .iter()
+            .all(|x| x.as_f64().is_some_and(|x| (0.0..=1.0).contains(&x))));
+    }
+    assert_eq!(robot["proximity_angles"].as_array().map(Vec::len), Some(8));
+    assert!(robot["readings"]["blobs"].is_array());
+    // State history: at least the state at the start of the window, times within the last minute.
+    let h = robot["history"].as_array().expect("history");
+    assert!(!h.is_empty());
+    assert!(h
+        .iter()
+        .all(|e| e["t_s"].as_f64().is_some_and(|t| t <= 3.0)));
+    for (target, want) in [
+        ("/api/robot?i=20", 404),
+        ("/api/robot?i=x", 400),
+        ("/api/robot", 400),
+        ("/api/robot?i=1&j=2", 400),
+        ("/api/series?x=1", 400),
+    ] {
+        assert_eq!(req(a, "GET", target).0, want, "{target}");
+    }
+    let s1 = json(&req(a, "GET", "/api/series").1);
+    let n1 = s1["t_s"].as_array().map_or(0, Vec::len);
+    assert_eq!(n1, 7, "t = 0, 0.5, ..., 3 s: {s1}");
+    assert!(s1["states"].as_array().is_some_and(|s| !s.is_empty()));
+    assert_eq!(
+        s1["robots_in_state"].as_array().map(Vec::len),
+        s1["states"].as_array().map(Vec::len)
+    );
+    assert!(s1["goal_distance_m"][0].as_f64().is_some());
+    req(a, "POST", "/api/step?n=20");
+    let s2 = json(&req(a, "GET", "/api/series").1);
+    assert_eq!(s2["t_s"].as_array().map_or(0, Vec::len), n1 + 4);
+    // A restart starts a new series.
+    req(a, "POST", "/api/restart?seed=3");
+    let s3 = json(&req(a, "GET", "/api/series").1);
+    assert_eq!(s3["t_s"].as_array().map_or(0, Vec::len), 1);
+    assert_eq!(s3["generation"], 2);
+}
+
+#[test]
+fn a_replay_is_checked_against_its_stored_result() {
+    use formica::experiment::{run, RunOptions};
+    use formica::Overrides;
+    let sc = small();
+    let stored = run(
+        &sc,
+        &RunOptions {
+            overrides: Overrides {
+                seed: Some(4),
+                duration_s: Some(3.0),
+                controller: None,
+            },
+            ..RunOptions::default()
+        },
+    )
+    .expect("runs")
+    .0;
+    for tamper in [false, true] {
+        let mut stored = stored.clone();
+        if tamper {
+            stored.object_path_m += 1.0;
+        }
+        let r = start_with(small(), |o| {
+            o.seed = Some(4);
+            o.duration_s = Some(3.0);
+            o.replay = Some(formica_serve::ReplayInfo {
+                label: "trial 7 of test.db".into(),
+                seed: 4,
+                stored: stored.clone(),
+                params: vec![("robots.0.count".into(), "3".into())],
+            });
+        });
+        let a = r.addr();
+        let scene = json(&req(a, "GET", "/api/scene").1);
+        assert_eq!(scene["replay"]["label"], "trial 7 of test.db");
+        assert_eq!(scene["replay"]["stored_outcome"], "timeout");
+        let s = json(&req(a, "GET", "/api/state").1);
+        assert_eq!(s["replay"]["active"], true);
+        assert_eq!(s["replay"]["ended"], false);
+        assert!(s["replay"]["matches"].is_null());
+        let s = json(&req(a, "POST", "/api/step?n=100").1);
+        assert_eq!(s["tick"], 30);
+        assert_eq!(s["replay"]["ended"], true);
+        assert_eq!(s["replay"]["matches"], !tamper, "{s}");
+        let diffs = s["replay"]["differences"].as_array().expect("list");
+        assert_eq!(diffs.len(), usize::from(tamper), "{diffs:?}");
+        if tamper {
+            assert!(diffs[0]
+                .as_str()
+                .is_some_and(|d| d.starts_with("object_path_m")));
+        }
+        // Another seed is not the trial.
+        let s = json(&req(a, "POST", "/api/restart?seed=5").1);
+        assert_eq!(s["replay"]["active"], false);
+    }
+}
