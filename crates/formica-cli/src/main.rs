@@ -16,15 +16,18 @@ mod cmd_run;
 mod cmd_serve;
 mod cmd_slurm;
 mod cmd_sweep;
+mod gallery;
 mod output;
 mod plots;
+mod provenance;
+mod replay;
 mod stats;
 mod store;
 mod sweep;
 
 /// Formica: a simulator and behaviour suite for cooperative transport by robot swarms.
 #[derive(Parser)]
-#[command(name = "formica", version, about, long_about = None)]
+#[command(name = "formica", version = provenance::LONG_VERSION, about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
