@@ -397,6 +397,7 @@ fn memory_stays_bounded_with_many_clients() {
     assert_eq!(req(a, "GET", "/api/state").1, state_before);
     let stats = json(&req(a, "GET", "/api/stats").1);
     assert_eq!(stats["simulations"], 1);
+    // Connections are bounded (one thread each), whatever the number of clients.
     assert!(stats["max_connections"].as_u64().is_some_and(|m| m <= 64));
     if let (Some(r0), Some(r1)) = (rss0, rss1) {
         // 960 more requests; a per-request leak of even 10 KiB would show.
@@ -404,36 +405,129 @@ fn memory_stays_bounded_with_many_clients() {
     }
 }
 
+/// A world heavy enough that stepping it 4,000 ticks takes a second or more: 300 robots wandering.
+fn heavy() -> Scenario {
+    Scenario::parse(
+        r#"
+name = "heavy"
+[arena]
+size = [12.0, 12.0]
+[[robots]]
+count = 300
+controller = "random-walk"
+placement = { random = { min = [-5.5, -5.5], max = [5.5, 5.5] } }
+[run]
+duration_s = 100000
+"#,
+        "heavy.toml",
+    )
+    .expect("test scenario parses")
+}
+
 #[test]
-fn a_full_queue_answers_busy_and_recovers() {
-    let r = start_with(small(), |o| {
-        o.workers = 1;
-        o.queue = 1;
-        o.read_timeout = Duration::from_millis(800);
+fn a_full_server_evicts_idle_clients_and_answers_busy_only_when_all_are_answering() {
+    let r = start_with(heavy(), |o| {
+        o.max_connections = 2;
+        o.read_timeout = Duration::from_secs(10);
     });
     let a = r.addr();
-    // Silent clients occupy the one worker and then the one queue slot.
-    let mut idle = Vec::new();
-    for _ in 0..2 {
-        idle.push(TcpStream::connect(a).expect("connects"));
-        std::thread::sleep(Duration::from_millis(150));
-    }
-    let codes: Vec<u16> = (0..2).map(|_| req(a, "GET", "/api/state").0).collect();
-    assert!(
-        codes.contains(&503),
-        "a full queue turns clients away: {codes:?}"
-    );
-    drop(idle);
+    // Silent clients fill both connections; each newcomer evicts the oldest silent one and is
+    // answered at once, long before the silent ones' 10 s would run out.
+    let mut idle: Vec<TcpStream> = (0..2)
+        .map(|_| {
+            let s = TcpStream::connect(a).expect("connects");
+            std::thread::sleep(Duration::from_millis(50));
+            s
+        })
+        .collect();
     let t0 = Instant::now();
-    let mut ok = false;
-    while !ok && t0.elapsed() < Duration::from_secs(10) {
-        ok = req(a, "GET", "/api/state").0 == 200;
-        if !ok {
-            std::thread::sleep(Duration::from_millis(100));
-        }
+    assert_eq!(req(a, "GET", "/api/state").0, 200);
+    assert!(t0.elapsed() < Duration::from_secs(2), "{:?}", t0.elapsed());
+    assert!(r.handle.stats().evicted >= 1);
+    // The oldest silent client was closed without an answer.
+    idle[0]
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    let mut buf = [0u8; 64];
+    assert!(matches!(idle[0].read(&mut buf), Ok(0) | Err(_)));
+
+    // While both connections are being answered (a long step, and a request queued behind it
+    // for the simulation), a newcomer is turned away with 503; once they are done, it is
+    // served again.
+    drop(idle.drain(..));
+    let patient = |target: &'static str| {
+        std::thread::spawn(move || {
+            let mut s = TcpStream::connect(a).expect("connects");
+            s.set_read_timeout(Some(Duration::from_secs(120)))
+                .expect("timeout");
+            let port = a.port();
+            s.write_all(
+                format!(
+                    "POST {target} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Length: 0\r\n\r\n"
+                )
+                .as_bytes(),
+            )
+            .expect("sends");
+            let mut out = String::new();
+            let _ = s.read_to_string(&mut out);
+            out.split(' ')
+                .nth(1)
+                .and_then(|c| c.parse::<u16>().ok())
+                .unwrap_or(0)
+        })
+    };
+    let t1 = Instant::now();
+    let long = patient("/api/step?n=4000");
+    std::thread::sleep(Duration::from_millis(100));
+    let queued = patient("/api/pause");
+    std::thread::sleep(Duration::from_millis(100));
+    let mut saw_busy = false;
+    while !saw_busy && !long.is_finished() {
+        saw_busy = req(a, "GET", "/api/state").0 == 503;
     }
-    assert!(ok, "serves again once the idle clients are gone");
+    let codes = [long.join().expect("client"), queued.join().expect("client")];
+    eprintln!("the long step was answered after {:?}", t1.elapsed());
+    assert_eq!(codes, [200, 200]);
+    assert!(saw_busy, "no 503 while both connections were answering");
     assert!(r.handle.stats().rejected >= 1);
+    assert_eq!(req(a, "GET", "/api/state").0, 200, "serves again");
+}
+
+#[test]
+fn a_hundred_idle_connections_do_not_lock_a_client_out() {
+    // The defaults `formica serve` uses: 64 connections, 5 s to send a request.
+    let r = start_with(seed_transport(), |o| {
+        o.read_timeout = ServeOptions::default().read_timeout;
+    });
+    let a = r.addr();
+    // 100 clients connect and send nothing (a few send half a request), and stay connected.
+    let idle: Vec<TcpStream> = (0..100)
+        .map(|k| {
+            let mut s = TcpStream::connect(a).expect("connects");
+            if k % 10 == 0 {
+                let _ = s.write_all(b"GET /api/sta");
+            }
+            s
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(100));
+    let st = r.handle.stats();
+    assert!(st.open_connections <= st.max_connections, "{st:?}");
+    // A client loads the page and its assets and steps the simulation, in well under 1 s.
+    let t0 = Instant::now();
+    for path in ["/", "/viewer.js", "/viewer.css", "/api/scene", "/api/state"] {
+        assert_eq!(req(a, "GET", path).0, 200, "{path}");
+    }
+    for k in 1..=5 {
+        let (code, body) = req(a, "POST", "/api/step");
+        assert_eq!(code, 200, "{body}");
+        assert_eq!(json(&body)["tick"], k);
+    }
+    let took = t0.elapsed();
+    eprintln!("with 100 idle connections open: page, scene, state and 5 steps in {took:?}");
+    assert!(took < Duration::from_secs(1), "took {took:?}");
+    assert_eq!(r.handle.stats().rejected, 0);
+    drop(idle);
 }
 
 #[test]
