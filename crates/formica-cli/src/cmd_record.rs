@@ -5,7 +5,7 @@ use crate::replay::Replayer;
 use crate::CliError;
 use anyhow::Context;
 use formica::experiment::{Run, RunOptions};
-use formica::{Overrides, Scenario};
+use formica::Overrides;
 use formica_render::{record_gif, record_mp4, RecordOptions};
 use std::path::PathBuf;
 
@@ -20,7 +20,7 @@ pub struct Args {
     pub out: PathBuf,
     /// Record a trial of this result store (with `--trial`) instead of a scenario file.
     #[arg(long, value_name = "STUDY.db", requires = "trial",
-          conflicts_with_all = ["scenario", "seed", "duration", "controller"])]
+          conflicts_with_all = ["scenario", "seed", "duration", "controller", "set"])]
     pub db: Option<PathBuf>,
     /// With `--db`: the trial to record (its number, as `formica report` lists it).
     #[arg(long, requires = "db")]
@@ -34,6 +34,9 @@ pub struct Args {
     /// Use this controller for every robot group.
     #[arg(long)]
     pub controller: Option<String>,
+    /// Override any scenario key, as `formica run --set` does (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Frames per second of the animation.
     #[arg(long, default_value_t = 10)]
     pub fps: u32,
@@ -111,7 +114,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let (sc, overrides) = match (&replay, &a.scenario) {
         (Some(r), _) => (r.scenario.clone(), r.overrides()),
         (None, Some(path)) => (
-            Scenario::load(path)?,
+            crate::cmd_run::load(path, &a.set)?,
             Overrides {
                 seed: a.seed,
                 duration_s: a.duration,
