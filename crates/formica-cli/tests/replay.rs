@@ -381,3 +381,48 @@ fn resuming_a_store_of_another_results_format_is_refused_unless_allow_mixed() {
     let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
     assert!(md.contains("MIXED results formats"), "{md}");
 }
+
+#[test]
+fn stores_from_before_scenarios_were_kept_replay_from_their_sweep_file() {
+    let dir = tmp("old-store");
+    let db = smoke_store(&dir);
+    // What a store of an older Formica holds: no kept scenarios, no provenance in its rows.
+    let c = conn(&db);
+    c.execute("DELETE FROM scenarios", []).unwrap();
+    c.execute("UPDATE trials SET scenario_sha256 = NULL", [])
+        .unwrap();
+    drop(c);
+    let o = ok(formica()
+        .args(["run", "--trial", "0..5", "--db"])
+        .arg(&db)
+        .output()
+        .unwrap());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("replayed 6 trials, 6 end as stored"),
+        "{text}"
+    );
+    // A sweep file that no longer holds the same sweep cannot rebuild its trials.
+    let copy = dir.join("smoke.toml");
+    let sweep = std::fs::read_to_string(repo("experiments/smoke.toml"))
+        .unwrap()
+        .replace("duration_s = 120", "duration_s = 121")
+        .replace(
+            "../scenarios/",
+            &format!("{}/", repo("scenarios").display()),
+        );
+    std::fs::write(&copy, sweep).unwrap();
+    conn(&db)
+        .execute(
+            "UPDATE meta SET value = ?1 WHERE key = 'sweep'",
+            [copy.display().to_string()],
+        )
+        .unwrap();
+    let o = formica()
+        .args(["run", "--trial", "1", "--db"])
+        .arg(&db)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("has changed since the store was made"));
+}
