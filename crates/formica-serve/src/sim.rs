@@ -611,9 +611,12 @@ impl Sim {
         serde_json::to_string(&out).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
     }
 
-    /// The time series so far (goal distance, object speed, robots per state) as JSON.
+    /// The time series so far (goal distance, object speed, robots per state) as JSON, ending
+    /// with the state now.
     pub fn series_json(&self) -> String {
-        let mut v = self.series.to_json();
+        let mut series = self.series.clone();
+        series.sample(&self.run.world);
+        let mut v = series.to_json();
         if let Some(m) = v.as_object_mut() {
             m.insert("generation".into(), self.generation.into());
         }
