@@ -655,7 +655,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         a.failures,
         a.gallery,
     )?);
-    md.push_str(&crate::gallery::provenance_section(&store, &a.db)?);
+    md.push_str(&crate::gallery::provenance_section(&store, &a.db, &a.out)?);
     std::fs::write(dir.join("summary.md"), md).context("writing summary.md")?;
     outln!(
         "wrote {} figures (PNG and SVG) and summary.md to {}",

@@ -30,15 +30,16 @@ pub fn shown_path(p: &str) -> String {
     }
 }
 
-/// The `## Provenance` section.
-pub fn provenance_section(store: &Store, db: &Path) -> Result<String, CliError> {
+/// The `## Provenance` section of the report written to `out`.
+pub fn provenance_section(store: &Store, db: &Path, out: &Path) -> Result<String, CliError> {
     let mut md = String::from("## Provenance\n\n");
     let name = replay::store_name(db);
     let sweep = store.meta("sweep")?.map(|s| shown_path(&s));
     if let Some(s) = &sweep {
         let _ = writeln!(
             md,
-            "Made by `formica sweep {s} --db {name}`, then `formica report {name} --out DIR`.\n"
+            "Made by `formica sweep {s} --db {name}`, then `formica report {name} --out {}`.\n",
+            shown_path(&out.display().to_string())
         );
     }
     let writers = store.writers()?;
