@@ -139,7 +139,7 @@ enum Control {
     Restart(Option<u64>),
 }
 
-/// What workers ask the simulation thread.
+/// What connection threads ask the simulation thread.
 enum Cmd {
     Scene(SyncSender<String>),
     State(StateQuery, SyncSender<String>),
