@@ -99,14 +99,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             )));
         }
     }
-    if let Some(c) = &a.controller {
-        if !formica::controllers::NAMES.contains(&c.as_str()) {
-            return Err(CliError::Input(format!(
-                "--controller: unknown controller `{c}`, expected one of {}",
-                formica::controllers::NAMES.join(", ")
-            )));
-        }
-    }
+    crate::check_controller(a.controller.as_deref())?;
     let replay = match (&a.db, a.trial) {
         (Some(db), Some(n)) => Some(Replayer::open(db)?.trial(n)?),
         _ => None,

@@ -38,8 +38,9 @@ pub fn provenance_section(store: &Store, db: &Path, out: &Path) -> Result<String
     if let Some(s) = &sweep {
         let _ = writeln!(
             md,
-            "Made by `formica sweep {s} --db {name}`, then `formica report {name} --out {}`.\n",
-            shown_path(&out.display().to_string())
+            "Made by `{program} sweep {s} --db {name}`, then `{program} report {name} --out {}`.\n",
+            shown_path(&out.display().to_string()),
+            program = crate::program()
         );
     }
     let writers = store.writers()?;
@@ -135,6 +136,7 @@ pub fn failures_section(
         .collect();
     let mut md = String::from("## Failed trials\n\n");
     let name = replay::store_name(db);
+    let program = crate::program();
     if failed.is_empty() {
         md.push_str("Every trial succeeded.\n\n");
         return Ok(md);
@@ -157,7 +159,7 @@ pub fn failures_section(
     };
     let _ = writeln!(
         md,
-        "{} of {} trials did not succeed. Each replays in the viewer with the command shown (run where `{name}` is; `formica run --db {name} --trial N` replays it headless and checks that it ends as stored).{}\n",
+        "{} of {} trials did not succeed. Each replays in the viewer with the command shown (run where `{name}` is; `{program} run --db {name} --trial N` replays it headless and checks that it ends as stored).{}\n",
         failed.len(),
         rows.len(),
         if gallery > 0 {
@@ -209,7 +211,7 @@ pub fn failures_section(
         if mine.len() > list {
             let _ = writeln!(
                 md,
-                "\n{} more not listed (`formica export {name} --csv -` lists every trial).",
+                "\n{} more not listed (`{program} export {name} --csv -` lists every trial).",
                 mine.len() - list
             );
         }

@@ -66,9 +66,10 @@ pub fn store_name(db: &Path) -> String {
     )
 }
 
-/// The command that replays `trial` of the store `db_shown` in the viewer.
+/// The command that replays `trial` of the store `db_shown` in the viewer (named after this
+/// program: `formica`, or a program built on [`crate::main_with`]).
 pub fn serve_command(db_shown: &str, trial: usize) -> String {
-    format!("formica serve --db {db_shown} --trial {trial}")
+    format!("{} serve --db {db_shown} --trial {trial}", crate::program())
 }
 
 /// Opens trials of one store for replay (the sweep file, if needed, is read once).

@@ -9,8 +9,10 @@
 //!   every build that added trials, see [`crate::provenance::Writer`]).
 //! - `trials`: `trial` (index in the full grid), `params` (canonical JSON), `seed`, one column
 //!   per varied key (named as the key, e.g. `robots.0.count`), then every `RunResult` metric
-//!   (`scenario_name` for the result's `scenario`) and the four [`PROVENANCE`] columns.
-//!   Primary key `(params, seed)`.
+//!   (`scenario_name` for the result's `scenario`), the four [`PROVENANCE`] columns, then one
+//!   column per end-of-run field that loop functions added (`RunResult::extra`, added as trials
+//!   bring new ones; NULL in trials without it; lists and tables as JSON text). Primary key
+//!   `(params, seed)`.
 //! - `scenarios(sha256, file, toml)`: each parameter set's scenario as run (overrides applied),
 //!   by its `scenario_sha256`, so that any trial can be replayed from the store alone.
 //! - `trajectories(params, seed, samples)`: the object's path as JSON `[[t, x, y, theta], ...]`,
@@ -25,7 +27,7 @@ use anyhow::Context;
 use formica::{Outcome, RunResult};
 use rusqlite::types::Value as SqlValue;
 use rusqlite::{params, Connection, OptionalExtension};
-use std::collections::HashSet;
+use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
 
 /// The metric columns, in order, with their SQL types.
@@ -58,6 +60,11 @@ pub const PROVENANCE: &[&str] = &[
 /// Columns every `trials` table starts with.
 pub const HEAD: &[&str] = &["trial", "params", "seed"];
 
+/// Whether `c` is one of the columns every `trials` table has (head, metrics, provenance).
+pub fn is_fixed_column(c: &str) -> bool {
+    HEAD.contains(&c) || METRICS.iter().any(|(m, _)| *m == c) || PROVENANCE.contains(&c)
+}
+
 /// Quotes an SQL identifier.
 pub fn ident(name: &str) -> String {
     format!("\"{}\"", name.replace('"', "\"\""))
@@ -67,6 +74,8 @@ pub fn ident(name: &str) -> String {
 pub struct Store {
     /// The connection.
     pub conn: Connection,
+    /// Columns of `trials` known to exist (end-of-run fields are added as they come).
+    known: HashSet<String>,
 }
 
 /// One finished trial, ready to store.
@@ -94,6 +103,33 @@ fn sql_of(v: &toml::Value) -> SqlValue {
         toml::Value::Boolean(b) => SqlValue::Integer(i64::from(*b)),
         toml::Value::String(s) => SqlValue::Text(s.clone()),
         other => SqlValue::Text(crate::sweep::canonical_json(other)),
+    }
+}
+
+/// An end-of-run field as SQL: numbers as INTEGER or REAL, booleans as 0 / 1, lists and tables as
+/// JSON text.
+fn sql_of_json(v: &serde_json::Value) -> SqlValue {
+    use serde_json::Value as J;
+    match v {
+        J::Null => SqlValue::Null,
+        J::Bool(b) => SqlValue::Integer(i64::from(*b)),
+        J::Number(n) => match (n.as_i64(), n.as_f64()) {
+            (Some(i), _) => SqlValue::Integer(i),
+            (None, Some(f)) => SqlValue::Real(f),
+            (None, None) => SqlValue::Text(n.to_string()),
+        },
+        J::String(s) => SqlValue::Text(s.clone()),
+        other => SqlValue::Text(other.to_string()),
+    }
+}
+
+/// A stored end-of-run field back as JSON (NULL: absent).
+fn json_of_sql(v: SqlValue) -> Option<serde_json::Value> {
+    match v {
+        SqlValue::Null | SqlValue::Blob(_) => None,
+        SqlValue::Integer(i) => Some(i.into()),
+        SqlValue::Real(f) => serde_json::Number::from_f64(f).map(serde_json::Value::Number),
+        SqlValue::Text(t) => Some(t.into()),
     }
 }
 
@@ -131,10 +167,14 @@ impl Store {
             metrics.join(", ")
         ))
         .with_context(|| format!("creating the tables of {}", path.display()))?;
-        let store = Store { conn };
+        let mut store = Store {
+            conn,
+            known: HashSet::new(),
+        };
         // Stores made before provenance was recorded get its columns (empty in old rows).
         let want: Vec<String> = PROVENANCE.iter().map(|s| s.to_string()).collect();
         store.ensure_columns(&want)?;
+        store.known = store.columns()?.into_iter().collect();
         Ok(store)
     }
 
@@ -314,8 +354,48 @@ impl Store {
         Ok(n as usize)
     }
 
+    /// The columns of end-of-run fields: those neither fixed (head, metrics, provenance) nor a
+    /// varied key, in table order.
+    pub fn extra_columns(&self) -> Result<Vec<String>, CliError> {
+        let keys = self.keys()?;
+        Ok(self
+            .columns()?
+            .into_iter()
+            .filter(|c| !is_fixed_column(c) && !keys.contains(c))
+            .collect())
+    }
+
+    /// Adds a column for each end-of-run field of `row` that has none yet.
+    fn ensure_extra_columns(&mut self, row: &Row) -> Result<(), CliError> {
+        for k in row.result.extra.keys() {
+            if row.values.iter().any(|(v, _)| v == k) {
+                return Err(CliError::Input(format!(
+                    "end-of-run field `{k}` has the name of a varied key; rename one of them"
+                )));
+            }
+            if is_fixed_column(k) {
+                return Err(CliError::Input(format!(
+                    "end-of-run field `{k}` has the name of a column of every result store; rename it"
+                )));
+            }
+            if self.known.contains(k) {
+                continue;
+            }
+            let have = self.columns()?;
+            if !have.contains(k) {
+                self.conn
+                    .execute(&format!("ALTER TABLE trials ADD COLUMN {}", ident(k)), [])
+                    .with_context(|| format!("adding column {k}"))?;
+            }
+            self.known.extend(have);
+            self.known.insert(k.clone());
+        }
+        Ok(())
+    }
+
     /// Stores one trial (and its trajectory) in one transaction.
     pub fn insert(&mut self, row: &Row) -> Result<(), CliError> {
+        self.ensure_extra_columns(row)?;
         let r = &row.result;
         let mut cols: Vec<String> = HEAD.iter().map(|s| ident(s)).collect();
         let mut vals: Vec<SqlValue> = vec![
@@ -359,6 +439,10 @@ impl Store {
         ]) {
             cols.push(ident(name));
             vals.push(SqlValue::Text(v.clone()));
+        }
+        for (k, v) in &r.extra {
+            cols.push(ident(k));
+            vals.push(sql_of_json(v));
         }
         let marks: Vec<String> = (1..=vals.len()).map(|i| format!("?{i}")).collect();
         let tx = self.conn.transaction().context("starting a transaction")?;
@@ -408,11 +492,15 @@ impl Store {
         filter: &str,
         args: impl rusqlite::Params,
     ) -> Result<Vec<StoredTrial>, CliError> {
+        let extras = self.extra_columns()?;
+        let fixed = HEAD.len() + METRICS.len() + PROVENANCE.len();
         let sel: Vec<String> = HEAD
             .iter()
             .chain(METRICS.iter().map(|(n, _)| n))
             .chain(PROVENANCE)
-            .map(|s| ident(s))
+            .copied()
+            .chain(extras.iter().map(String::as_str))
+            .map(ident)
             .collect();
         let mut st = self
             .conn
@@ -433,6 +521,12 @@ impl Store {
                 let text = |i: usize| -> rusqlite::Result<String> {
                     Ok(r.get::<_, Option<String>>(i)?.unwrap_or_default())
                 };
+                let mut extra = BTreeMap::new();
+                for (i, k) in extras.iter().enumerate() {
+                    if let Some(v) = json_of_sql(r.get(fixed + i)?) {
+                        extra.insert(k.clone(), v);
+                    }
+                }
                 Ok(StoredTrial {
                     trial: r.get::<_, i64>(0)? as usize,
                     provenance: Provenance {
@@ -460,6 +554,7 @@ impl Store {
                         convexity_after: r.get(15)?,
                         cavity_filled: r.get(16)?,
                         wall_time_s: r.get(17)?,
+                        extra,
                     },
                 })
             })
@@ -569,4 +664,109 @@ pub fn columns_of(conn: &Connection, db: &str) -> Result<Vec<String>, CliError> 
         out.push(r.context("reading the table layout")?);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(seed: u64, extra: serde_json::Value) -> Row {
+        let extra = extra.as_object().cloned().unwrap_or_default();
+        Row {
+            trial: seed as usize,
+            params: "{}".into(),
+            values: vec![("robots.0.count".into(), toml::Value::Integer(3))],
+            result: RunResult {
+                scenario: "s".into(),
+                seed,
+                extra: extra.into_iter().collect(),
+                ..RunResult::default()
+            },
+            trajectory: None,
+            timeseries: None,
+            provenance: Provenance {
+                formica_version: "v".into(),
+                git_commit: "c".into(),
+                scenario_sha256: "s".into(),
+                platform: "p".into(),
+            },
+        }
+    }
+
+    #[test]
+    fn end_of_run_fields_read_back_as_core_says_a_store_keeps_them() {
+        for v in [
+            serde_json::json!(null),
+            serde_json::json!(true),
+            serde_json::json!(false),
+            serde_json::json!(7),
+            serde_json::json!(-7),
+            serde_json::json!(u64::MAX),
+            serde_json::json!(1.0),
+            serde_json::json!(0.1),
+            serde_json::json!("text"),
+            serde_json::json!([1, 2]),
+            serde_json::json!({ "a": 1 }),
+        ] {
+            assert_eq!(
+                json_of_sql(sql_of_json(&v)),
+                formica::experiment::extra_as_stored(&v),
+                "{v}"
+            );
+        }
+    }
+
+    #[test]
+    fn end_of_run_fields_become_columns_and_read_back() {
+        let dir = std::env::temp_dir().join(format!("formica-store-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let path = dir.join("t.db");
+        let mut store = Store::open(&path).unwrap();
+        store.set_meta("keys", r#"["robots.0.count"]"#).unwrap();
+        store.ensure_columns(&["robots.0.count".into()]).unwrap();
+        store
+            .insert(&row(
+                1,
+                serde_json::json!({ "b": 1.5, "a": [1, 2], "flag": true }),
+            ))
+            .unwrap();
+        store.insert(&row(2, serde_json::json!({}))).unwrap();
+        store
+            .insert(&row(3, serde_json::json!({ "c": 7 })))
+            .unwrap();
+        assert_eq!(store.extra_columns().unwrap(), ["a", "b", "flag", "c"]);
+        let back = store.results().unwrap();
+        let extra = |i: usize| serde_json::to_value(&back[i].result.extra).unwrap();
+        assert_eq!(
+            extra(0),
+            serde_json::json!({ "a": "[1,2]", "b": 1.5, "flag": 1 })
+        );
+        assert_eq!(extra(1), serde_json::json!({}));
+        assert_eq!(extra(2), serde_json::json!({ "c": 7 }));
+        // The provenance columns come before the end-of-run fields and read back as written.
+        let cols = store.columns().unwrap();
+        let at = |c: &str| cols.iter().position(|x| x == c).unwrap();
+        assert!(at("platform") < at("a"), "{cols:?}");
+        assert_eq!(back[2].provenance, row(3, serde_json::json!({})).provenance);
+        // A field named like a fixed column is refused too.
+        let fixed = store
+            .insert(&row(5, serde_json::json!({ "git_commit": "x" })))
+            .err()
+            .map(|e| match e {
+                CliError::Input(m) => m,
+                CliError::Other(e) => e.to_string(),
+            });
+        assert!(fixed.is_some_and(|m| m.contains("column of every result store")));
+        // A field named like a varied key is refused, not stored under the key's column.
+        let e = store
+            .insert(&row(4, serde_json::json!({ "robots.0.count": 1 })))
+            .err()
+            .map(|e| match e {
+                CliError::Input(m) => m,
+                CliError::Other(e) => e.to_string(),
+            });
+        assert!(e.is_some_and(|m| m.contains("has the name of a varied key")));
+        drop(store);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
