@@ -30,6 +30,7 @@ pub mod registry;
 pub mod robot;
 pub mod scenario;
 pub mod sensors;
+pub mod timeseries;
 pub mod world;
 
 pub use experiment::{run, LoopFunctions, Outcome, RunOptions, RunResult, Trajectories};
