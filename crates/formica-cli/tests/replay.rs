@@ -204,7 +204,13 @@ fn report_lists_failed_trials_with_replay_commands_and_a_gallery() {
     }
     // Provenance, and no path of this machine.
     assert!(md.contains("## Provenance"), "{md}");
-    assert!(md.contains("results format 1"), "{md}");
+    assert!(
+        md.contains(&format!(
+            "results format {}",
+            formica::experiment::RESULTS_FORMAT
+        )),
+        "{md}"
+    );
     let tmp_dir = std::env::temp_dir().display().to_string();
     assert!(
         !md.contains(&tmp_dir),
@@ -353,7 +359,13 @@ fn resuming_a_store_of_another_results_format_is_refused_unless_allow_mixed() {
         err.contains("0.0.9 (commit abc, x, results format 0)"),
         "{err}"
     );
-    assert!(err.contains("results format 1"), "{err}");
+    assert!(
+        err.contains(&format!(
+            "results format {}",
+            formica::experiment::RESULTS_FORMAT
+        )),
+        "{err}"
+    );
     assert!(err.contains("--allow-mixed"), "{err}");
     let n: i64 = conn(&db)
         .query_row("SELECT COUNT(*) FROM trials", [], |r| r.get(0))
