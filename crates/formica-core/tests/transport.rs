@@ -110,7 +110,7 @@ fn camera_robots_transport_too() {
     let sc = Scenario::parse(&text, "camera.toml").unwrap_or_else(|e| panic!("{e}"));
     let mut run = start(&sc, 1);
     assert_eq!(run.run_to_end(), Outcome::Success);
-    assert!(run.world.groups[0].needs().camera && !run.world.groups[0].needs().beacon);
+    assert!(run.world.groups[0].needs().scan && !run.world.groups[0].needs().beacon);
 }
 
 #[test]

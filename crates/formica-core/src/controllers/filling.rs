@@ -2,8 +2,9 @@
 //!
 //! Each robot, on its own and without messages:
 //!
-//! 1. **search / approach**: steers toward the summed light vector of the object's beacon light
-//!    (the light hangs above the object); random walk while the light is hidden.
+//! 1. **search / approach**: steers toward the object's beacon light (the light hangs above the
+//!    object; its bearing from the light ring, [`light_bearing`]); random walk while the ring
+//!    shows no light above its ambient background (contrast below `light_contrast`).
 //! 2. **follow**: on touching something that is *object-like* (see below), follows its edge with
 //!    the **left-hand rule** (the edge stays on the robot's left), at about `follow_reading`.
 //!    Where the edge turns away (a convex corner), it arcs left for up to `lost_s` to find it
@@ -24,20 +25,25 @@
 //!    following and does not test again for `retry_s`.
 //!
 //! **The fix of the seed's failure** (robots that stop because neighbours, not the object,
-//! surround them). Moving robots show red LEDs, attached ones blue. With `filter_neighbours`
-//! (default), the robot reads its colour-blob camera: a proximity sensor whose bearing falls on
-//! a *red/non-blue robot* blob within proximity range (within the neighbour's angular half-width
-//! plus 0.15 rad) is explained by a moving neighbour and is not object-like. Attached (blue)
-//! robots and the object itself are object-like. With `require_object` (default) the stop test
-//! also needs the object or a blue robot in sight within proximity range, so arena walls and
-//! their corners (invisible to the camera) never make a robot stop. Together with the `hold_s`
-//! persistence test while creeping, a robot stops only where the object (or the pseudo object)
-//! really surrounds it. `filter_neighbours = false, require_object = false, hold_s = 0`
-//! reproduces the seed's rule.
+//! surround them). Moving robots show red LEDs, attached ones blue; the object has its own
+//! colour (`object_color`). With `filter_neighbours` (default), the robot reads its colour scan
+//! ([`Readings::scan_color`], as Queiroz and MacRae's panoramic cameras): a proximity sensor
+//! whose bearing falls on scan bins that show a *moving robot* (any colour but the object's,
+//! blue, a wall's grey or nothing) within proximity range is explained by a neighbour and is not
+//! object-like. Attached (blue) robots and the object itself are object-like. With
+//! `require_object` (default) the stop test also needs the object's colour or a blue robot in
+//! the scan within proximity range, so arena walls and their corners (grey) never make a robot
+//! stop. Together with the `hold_s` persistence test while creeping, a robot stops only where
+//! the object (or the pseudo object) really surrounds it. Robots tell neighbour from object by
+//! colour only, as a real robot would. `perception = "camera"` reads the colour-blob camera
+//! instead (LED blobs; the object is seen only with the `camera = "oracle"` ablation).
+//! `filter_neighbours = false, require_object = false, hold_s = 0` reproduces the seed's rule,
+//! with the seed's sensors only (proximity and light).
 
 use crate::controller::{
     parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
 };
+use crate::controllers::occlusion::{self, is_robot_colour, light_contrast};
 use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
 use crate::scenario::Color;
@@ -45,6 +51,17 @@ use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
 use serde::Deserialize;
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
+
+/// Which camera tells neighbours from the object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FillPerception {
+    /// The colour scan (default).
+    #[default]
+    Scan,
+    /// The colour-blob camera (LEDs; objects only with the oracle ablation).
+    Camera,
+}
 
 /// Parameters of `filling` (all optional; defaults suit Khepera IV and the seed's objects).
 #[derive(Debug, Clone, Deserialize)]
@@ -67,6 +84,13 @@ pub struct Params {
     pub fire_threshold: f32,
     /// Proximity readings at or below this are taken as nothing (sensor noise). Default 0.03.
     pub noise_floor: f32,
+    /// Light-ring contrast (strongest reading above the mean of the weaker half) above which
+    /// the beacon light counts as seen. Default 0.08.
+    pub light_contrast: f32,
+    /// Camera that tells neighbours from the object: `"scan"` (default) or `"camera"`.
+    pub perception: FillPerception,
+    /// Colour of the object. Default `green`.
+    pub object_color: Color,
     /// Firing object-like sensors (of 8; scaled for other rings) that make the object surround
     /// the robot over more than pi. Default 4 (the seed's).
     pub stop_count: u32,
@@ -122,6 +146,9 @@ impl Default for Params {
             max_turn: 3.0,
             fire_threshold: 0.05,
             noise_floor: 0.03,
+            light_contrast: 0.08,
+            perception: FillPerception::Scan,
+            object_color: Color::Green,
             stop_count: 4,
             strong_reading: 0.7,
             strong_count: 2,
@@ -162,6 +189,7 @@ impl Params {
         let non_negative = [
             ("follow_gain", self.follow_gain),
             ("noise_floor", self.noise_floor),
+            ("light_contrast", self.light_contrast),
             ("lost_s", self.lost_s),
             ("hold_s", self.hold_s),
             ("retry_s", self.retry_s),
@@ -179,11 +207,13 @@ impl Params {
 
     /// The sensors a filler with these parameters reads (besides what guides it).
     pub fn needs(&self) -> SensorNeeds {
+        let seeing = self.filter_neighbours || self.require_object;
         SensorNeeds {
             proximity: true,
             light: true,
             beacon: false,
-            camera: self.filter_neighbours || self.require_object,
+            camera: seeing && self.perception == FillPerception::Camera,
+            scan: seeing && self.perception == FillPerception::Scan,
         }
     }
 }
@@ -346,17 +376,78 @@ impl Filler {
         Actuation::from_twist(forward, t, &self.layout)
     }
 
-    fn perceive(&self, r: &Readings) -> Percept {
-        let mut out = Percept::default();
+    /// Whether colour `c` is the object or an attached robot (object-like).
+    fn object_like(&self, c: Color) -> bool {
+        c == self.p.object_color || c == Color::Blue
+    }
+
+    /// Whether the camera sees the object (or, without `object_reach`, an attached robot) near
+    /// enough for the stop test.
+    fn object_seen(&self, r: &Readings) -> bool {
+        let reach = self.layout.radius + self.layout.proximity_range + 0.02;
+        let obj = self.p.object_color;
+        match self.p.perception {
+            FillPerception::Scan => r
+                .scan_color
+                .iter()
+                .zip(&r.scan_range)
+                .any(|(c, d)| match self.p.object_reach {
+                    Some(dd) => *c == obj && *d <= dd,
+                    None => self.object_like(*c) && *d <= reach,
+                }),
+            FillPerception::Camera => r.blobs.iter().any(|b| match self.p.object_reach {
+                Some(dd) => b.color == obj && b.distance <= dd,
+                None => {
+                    // LED blobs are robot centres; object blobs (oracle) surface points.
+                    let d = if b.color == obj {
+                        b.distance
+                    } else {
+                        b.distance - self.layout.radius
+                    };
+                    self.object_like(b.color) && d <= reach
+                }
+            }),
+        }
+    }
+
+    /// Whether a proximity hit at bearing `a` (robot frame) is explained by a moving neighbour.
+    fn neighbour_at(&self, r: &Readings, a: f32) -> bool {
         let reach = self.layout.radius + self.layout.proximity_range + 0.02;
         let rad = self.layout.radius;
-        for b in &r.blobs {
-            let seen = match self.p.object_reach {
-                Some(d) => !b.is_robot && b.distance <= d,
-                None => b.distance <= reach && (!b.is_robot || b.color == Color::Blue),
-            };
-            out.object_seen |= seen;
+        let obj = self.p.object_color;
+        match self.p.perception {
+            FillPerception::Scan => {
+                let half = PI / self.layout.scan_angles.len().max(1) as f32 + 0.15;
+                r.scan_color
+                    .iter()
+                    .zip(&r.scan_range)
+                    .zip(&self.layout.scan_angles)
+                    .any(|((c, d), b)| {
+                        is_robot_colour(*c, obj)
+                            && *c != Color::Blue
+                            && *d <= reach
+                            && wrap_angle(a - b).abs() <= half
+                    })
+            }
+            FillPerception::Camera => r.blobs.iter().any(|b| {
+                if !is_robot_colour(b.color, obj) || b.color == Color::Blue {
+                    return false;
+                }
+                let centre = b.distance.max(rad);
+                if centre - rad > reach {
+                    return false;
+                }
+                let half = ops::asin((rad / centre).min(1.0)) + 0.15;
+                wrap_angle(a - b.bearing).abs() <= half
+            }),
         }
+    }
+
+    fn perceive(&self, r: &Readings) -> Percept {
+        let mut out = Percept {
+            object_seen: !self.p.require_object || self.object_seen(r),
+            ..Percept::default()
+        };
         for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
             if *v <= self.p.noise_floor {
                 continue;
@@ -365,16 +456,7 @@ impl Filler {
             if wrap_angle(*a).abs() < 0.88 {
                 out.front = out.front.max(*v);
             }
-            let neighbour = self.p.filter_neighbours
-                && r.blobs.iter().any(|b| {
-                    if !b.is_robot || b.color == Color::Blue || b.distance > reach {
-                        return false;
-                    }
-                    let centre = b.distance + rad;
-                    let half = ops::asin((rad / centre).min(1.0)) + 0.15;
-                    wrap_angle(a - b.bearing).abs() <= half
-                });
-            if neighbour {
+            if self.p.filter_neighbours && self.neighbour_at(r, *a) {
                 out.nb += dir * *v;
             } else {
                 out.obj += dir * *v;
@@ -386,9 +468,6 @@ impl Filler {
                     out.strong += 1;
                 }
             }
-        }
-        if !self.p.require_object {
-            out.object_seen = true;
         }
         out
     }
@@ -629,18 +708,18 @@ impl Filling {
     }
 }
 
-/// Bearing (robot frame) of the summed light vector, if any light is seen.
-pub fn light_bearing(r: &Readings, layout: &SensorLayout) -> Option<f32> {
-    let mut v = Vec2::ZERO;
-    for (l, a) in r.light.iter().zip(&layout.light_angles) {
-        v += ops::unit(*a) * *l;
+/// Bearing (robot frame) of a light on the ring, if the ring's contrast (see
+/// [`light_contrast`]) exceeds `threshold`.
+pub fn light_bearing(r: &Readings, layout: &SensorLayout, threshold: f32) -> Option<f32> {
+    if light_contrast(&r.light) <= threshold {
+        return None;
     }
-    (v.length() > 1e-6).then(|| ops::angle_of(v))
+    occlusion::light_bearing(&r.light, &layout.light_angles)
 }
 
 impl Controller for Filling {
     fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
-        let target = light_bearing(r, &self.layout);
+        let target = light_bearing(r, &self.layout, self.filler.p.light_contrast);
         self.filler.step_guided(r, rng, target, None)
     }
 
