@@ -69,6 +69,15 @@ pub struct RunResult {
     /// Fraction of the area between the object and its hull covered by attached robots.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cavity_filled: Option<f64>,
+    /// Robot discs that fit in the cavity (the region between the object and its hull).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cavity_capacity: Option<usize>,
+    /// Attached robots whose centre lies in the cavity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cavity_robots: Option<usize>,
+    /// Attached robots whose centre lies outside the object's hull.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub false_stops: Option<usize>,
     /// Wall-clock seconds the run took (the only field that is not deterministic).
     pub wall_time_s: f64,
 }
