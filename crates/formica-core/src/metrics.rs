@@ -161,12 +161,11 @@ fn in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2) -> bool {
 }
 
 /// How many robot discs of `radius` fit in the cavity of object `obj`: discs inside the
-/// object's hull, overlapping neither the object nor each other. Computed by lattice packing:
-/// hexagonal and square lattices of spacing `2 radius`, each at 12 rotations and 16 offsets,
-/// the best count kept. A lower bound of the best packing (exact for the small counts of the
-/// seed's cavities, checked in the tests); a cavity narrower than a robot has capacity 0.
-/// Bounded cost: trials thin out so that no more than [`MAX_PACKING_POINTS`] lattice points
-/// are examined per trial kind.
+/// object's hull, overlapping neither the object nor each other. Computed by lattice packing
+/// ([`pack_discs`]): hexagonal and square lattices of spacing `2 radius`, laid at 12 rotations
+/// and 16 offsets, and laid along every edge of the object and its hull with the first row
+/// touching that edge; the best count is kept. A lower bound of the best packing (the tests
+/// check it on cavities counted by hand); a cavity narrower than a robot has capacity 0.
 pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
     let hull = object_hull(world, obj);
     let body = world.objects[obj].body;
@@ -174,15 +173,37 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
         if inside_depth(&hull, p) < radius {
             return false;
         }
-        let (q, inside) = world.physics.nearest_point(body, p);
-        !inside && (q - p).length() >= radius
+        // `nearest_point` does not tell inside from outside for compound shapes.
+        if world.physics.contains(body, p) {
+            return false;
+        }
+        let (q, _) = world.physics.nearest_point(body, p);
+        (q - p).length() >= radius
     };
-    pack_discs(&hull, radius, fits)
+    let mut edges: Vec<(Vec2, Vec2)> = Vec::new();
+    for ring in world
+        .object_outlines(obj)
+        .iter()
+        .chain(std::iter::once(&hull))
+    {
+        for i in 0..ring.len() {
+            edges.push((ring[i], ring[(i + 1) % ring.len()]));
+        }
+    }
+    pack_discs(&hull, radius, &edges, fits)
 }
 
 /// Lattice packing of discs of `radius` into the convex region `hull`, where `fits` says
-/// whether a disc centred at a point is allowed.
-pub fn pack_discs(hull: &[Vec2], radius: f32, fits: impl Fn(Vec2) -> bool) -> usize {
+/// whether a disc centred at a point is allowed: the best of lattices at general rotations and
+/// offsets and of lattices whose rows run along one of `edges`, the first row `radius` from it.
+/// Bounded cost: trials thin out so that no more than about [`MAX_PACKING_POINTS`] lattice
+/// points are examined per kind of trial.
+pub fn pack_discs(
+    hull: &[Vec2],
+    radius: f32,
+    edges: &[(Vec2, Vec2)],
+    fits: impl Fn(Vec2) -> bool,
+) -> usize {
     if hull.len() < 3 || !(radius > 0.0) {
         return 0;
     }
@@ -205,18 +226,39 @@ pub fn pack_discs(hull: &[Vec2], radius: f32, fits: impl Fn(Vec2) -> bool) -> us
     } else {
         (1, 1)
     };
-    let mut best = 0;
-    for hex in [true, false] {
+    let count = |hex: bool, t: f32, o: Vec2| {
         let (skew, row) = if hex {
             (0.5 * d, d * 0.866_025_4)
         } else {
             (0.0, d)
         };
+        let (u, v) = (ops::unit(t), ops::unit(t + std::f32::consts::FRAC_PI_2));
+        // Lattice rows through `o`, covering the hull's bounding circle.
+        let shift_o = o - centre;
+        let (j0, i0) = (
+            (shift_o.dot(v) / row).round() as i64,
+            (shift_o.dot(u) / d).round() as i64,
+        );
+        let mut n = 0;
+        for j in -per_axis / 2 - 1..=per_axis / 2 + 1 {
+            let shift = if j.rem_euclid(2) == 1 { skew } else { 0.0 };
+            for i in -per_axis / 2 - 1..=per_axis / 2 + 1 {
+                let p = o + u * (d * (i - i0) as f32 + shift) + v * (row * (j - j0) as f32);
+                if (p - centre).length() <= half_diag && fits(p) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    };
+    let mut best = 0;
+    for hex in [true, false] {
         let sector = if hex {
             std::f32::consts::FRAC_PI_3
         } else {
             std::f32::consts::FRAC_PI_2
         };
+        let row = if hex { d * 0.866_025_4 } else { d };
         for k in 0..rotations {
             let t = sector * k as f32 / rotations as f32;
             let (u, v) = (ops::unit(t), ops::unit(t + std::f32::consts::FRAC_PI_2));
@@ -225,17 +267,23 @@ pub fn pack_discs(hull: &[Vec2], radius: f32, fits: impl Fn(Vec2) -> bool) -> us
                     let o = centre
                         + u * (d * ox as f32 / offsets as f32)
                         + v * (row * oy as f32 / offsets as f32);
-                    let mut n = 0;
-                    for j in -per_axis / 2..=per_axis / 2 {
-                        let shift = if j.rem_euclid(2) == 1 { skew } else { 0.0 };
-                        for i in -per_axis / 2..=per_axis / 2 {
-                            let p = o + u * (d * i as f32 + shift) + v * (row * j as f32);
-                            if (p - centre).length() <= half_diag && fits(p) {
-                                n += 1;
-                            }
-                        }
-                    }
-                    best = best.max(n);
+                    best = best.max(count(hex, t, o));
+                }
+            }
+        }
+        // Rows along an edge, the first `radius` inside it (either side), slid along it.
+        let along = if trials >= 96 { 16 } else { 2 };
+        for &(a, b) in edges.iter().take(if trials >= 96 { 64 } else { 4 }) {
+            let e = b - a;
+            if e.length() < 1e-6 {
+                continue;
+            }
+            let t = ops::angle_of(e);
+            let (u, v) = (ops::unit(t), ops::unit(t + std::f32::consts::FRAC_PI_2));
+            for side in [1.0f32, -1.0] {
+                for k in 0..along {
+                    let o = a + v * (side * radius) + u * (d * k as f32 / along as f32);
+                    best = best.max(count(hex, t, o));
                 }
             }
         }
