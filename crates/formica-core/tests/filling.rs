@@ -212,3 +212,28 @@ parts = [
 "#;
     assert_eq!(capacity_of(u), 11);
 }
+
+#[test]
+fn a_robot_outside_the_u_does_not_stop_against_its_back() {
+    // Against the outside of the U's back wall (the seed's false stop), with a red neighbour
+    // ahead and one behind so that 4 sensors fire: the object does not surround the robot.
+    let me = [-0.575, 0.0, 90.0];
+    let others = [[-0.575, 0.145, 90.0], [-0.575, -0.145, 90.0]];
+    let body = format!(
+        "{U}{}{}",
+        filling_robots(&[me], "filter_neighbours = false"),
+        red_neighbours(&others)
+    );
+    let mut run = start(&scenario(&body), 1);
+    run_for(&mut run, 10.0);
+    assert!(run.world.robots[0].attached.is_none());
+    // The seed's rule stops there.
+    let body = format!(
+        "{U}{}{}",
+        filling_robots(&[me], "filter_neighbours = false, require_object = false"),
+        red_neighbours(&others)
+    );
+    let mut run = start(&scenario(&body), 1);
+    run_for(&mut run, 10.0);
+    assert!(run.world.robots[0].attached.is_some());
+}

@@ -91,6 +91,14 @@ pub struct Params {
     pub perception: FillPerception,
     /// Colour of the object. Default `green`.
     pub object_color: Color,
+    /// With `require_object` and the scan: stop only where the object surrounds the robot, the
+    /// largest gap (degrees) between scan bins that show the object's colour or an attached
+    /// (blue) robot, which may hide the object, being at most this. A point lies inside the
+    /// object's convex hull exactly when the object leaves no gap above 180 degrees, so this
+    /// keeps robots from stopping outside the hull (against the outside of a U's back wall, or
+    /// stacked past a shallow cavity's mouth). 0 turns the check off. Default 190 (one bin of
+    /// slack).
+    pub surround_gap_deg: f32,
     /// Firing object-like sensors (of 8; scaled for other rings) that make the object surround
     /// the robot over more than pi. Default 4 (the seed's).
     pub stop_count: u32,
@@ -149,6 +157,7 @@ impl Default for Params {
             light_contrast: 0.08,
             perception: FillPerception::Scan,
             object_color: Color::Green,
+            surround_gap_deg: 190.0,
             stop_count: 4,
             strong_reading: 0.7,
             strong_count: 2,
@@ -194,6 +203,7 @@ impl Params {
             ("hold_s", self.hold_s),
             ("retry_s", self.retry_s),
             ("swing", self.swing),
+            ("surround_gap_deg", self.surround_gap_deg),
         ];
         crate::controller::check_params(&positive, &non_negative)?;
         if self.stop_count == 0 || self.stop_count > 8 {
@@ -410,6 +420,26 @@ impl Filler {
         }
     }
 
+    /// Whether the object's colour surrounds the robot in the scan (see
+    /// `Params::surround_gap_deg`); true when the check is off or there is no scan.
+    fn object_surrounds(&self, r: &Readings) -> bool {
+        let n = r.scan_color.len();
+        if self.p.surround_gap_deg <= 0.0 || self.p.perception != FillPerception::Scan || n == 0 {
+            return true;
+        }
+        let bins: Vec<usize> = (0..n)
+            .filter(|i| self.object_like(r.scan_color[*i]))
+            .collect();
+        let (Some(first), Some(last)) = (bins.first(), bins.last()) else {
+            return false;
+        };
+        let mut gap = first + n - last;
+        for w in bins.windows(2) {
+            gap = gap.max(w[1] - w[0]);
+        }
+        gap as f32 * 360.0 / n as f32 <= self.p.surround_gap_deg
+    }
+
     /// Whether a proximity hit at bearing `a` (robot frame) is explained by a moving neighbour.
     fn neighbour_at(&self, r: &Readings, a: f32) -> bool {
         let reach = self.layout.radius + self.layout.proximity_range + 0.02;
@@ -445,7 +475,8 @@ impl Filler {
 
     fn perceive(&self, r: &Readings) -> Percept {
         let mut out = Percept {
-            object_seen: !self.p.require_object || self.object_seen(r),
+            object_seen: !self.p.require_object
+                || (self.object_seen(r) && self.object_surrounds(r)),
             ..Percept::default()
         };
         for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
