@@ -65,7 +65,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 .iter()
                 .map(|g| {
                     let n = (friction / g.model.max_force).floor() as usize + 1;
-                    format!("{} {:?}", n, g.model.kind)
+                    format!("{} {}", n, g.model_name)
                 })
                 .collect();
             if !pushers.is_empty() {
@@ -80,8 +80,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let n = w.robots.iter().filter(|r| r.group == g).count();
         let needs = grp.needs();
         outln!(
-            "  robots[{g}]: {n} x {:?}, controller {}, sensors: proximity={} light={} beacon={} camera={} scan={}, noise {}",
-            grp.model.kind, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera,
+            "  robots[{g}]: {n} x {}, controller {}, sensors: proximity={} light={} beacon={} camera={} scan={}, noise {}",
+            grp.model_name, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera,
             needs.scan, grp.sensors.preset.name()
         );
         if let Some(warning) = formica::world::sensor_warning(grp) {

@@ -13,7 +13,7 @@ pub struct Args {
     /// Result store (SQLite) written by `formica sweep` or `formica merge`.
     pub db: PathBuf,
     /// CSV file to write (`-`: standard output). Columns: trial, seed, params (JSON), one
-    /// column per varied key, then every metric.
+    /// column per varied key, then every metric, then every end-of-run field of loop functions.
     #[arg(long)]
     pub csv: PathBuf,
     /// Also write the stored object trajectories as CSV (params, seed, t, x, y, theta).
@@ -55,17 +55,19 @@ fn open_out(path: &PathBuf) -> Result<Box<dyn Write>, CliError> {
     })
 }
 
-/// The export's columns: head, varied keys, metrics.
+/// The export's columns: head, varied keys, metrics, end-of-run fields.
 pub fn export_columns(store: &Store) -> Result<Vec<String>, CliError> {
     let have = store.columns()?;
+    let extras = store.extra_columns()?;
     let mut cols: Vec<String> = vec!["trial".into(), "seed".into(), "params".into()];
     for c in &have {
         let fixed = HEAD.contains(&c.as_str()) || METRICS.iter().any(|(m, _)| m == c);
-        if !fixed {
+        if !fixed && !extras.contains(c) {
             cols.push(c.clone());
         }
     }
     cols.extend(METRICS.iter().map(|(m, _)| m.to_string()));
+    cols.extend(extras);
     Ok(cols)
 }
 

@@ -91,14 +91,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             )));
         }
     }
-    if let Some(c) = &a.controller {
-        if !formica::controllers::NAMES.contains(&c.as_str()) {
-            return Err(CliError::Input(format!(
-                "--controller: unknown controller `{c}`, expected one of {}",
-                formica::controllers::NAMES.join(", ")
-            )));
-        }
-    }
+    crate::check_controller(a.controller.as_deref())?;
     let sc = Scenario::load(&a.scenario)?;
     let opts = RunOptions {
         overrides: Overrides {

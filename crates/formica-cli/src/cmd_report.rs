@@ -8,7 +8,9 @@
 //!   number of robots;
 //! - `trajectories`: the object's paths, coloured by outcome (if the store has them);
 //! - `fill-KEY`: convexity after filling and cavity filled (if the trials report them);
-//! - `summary.md`: one table row per parameter set.
+//! - `extra-FIELD-KEY`: the mean of each numeric end-of-run field that loop functions added
+//!   (`RunResult::extra`), with a 95 % interval;
+//! - `summary.md`: one table row per parameter set (end-of-run fields: their means).
 
 use crate::plots::{self, CategoryPlot, Estimate, LinePlot};
 use crate::stats::{censored_median, wilson95};
@@ -191,6 +193,28 @@ fn fmt_opt(x: Option<f64>, digits: usize) -> String {
     x.map_or_else(|| "–".into(), |v| format!("{v:.digits$}"))
 }
 
+/// End-of-run fields (`RunResult::extra`) that some trial reports as a number, by name.
+fn numeric_extras(rows: &[StoredTrial]) -> Vec<String> {
+    let mut out: std::collections::BTreeSet<&String> = std::collections::BTreeSet::new();
+    for r in rows {
+        out.extend(
+            r.result
+                .extra
+                .iter()
+                .filter(|(_, v)| v.is_number())
+                .map(|(k, _)| k),
+        );
+    }
+    out.into_iter().cloned().collect()
+}
+
+/// The numeric values of end-of-run field `field` in `rs` (trials without it left out).
+fn extra_values<'a>(rs: impl Iterator<Item = &'a RunResult>, field: &str) -> Vec<f64> {
+    rs.filter_map(|r| r.extra.get(field).and_then(serde_json::Value::as_f64))
+        .filter(|x| x.is_finite())
+        .collect()
+}
+
 /// Groups rows by (x value, series value).
 fn grouped(
     rows: &[StoredTrial],
@@ -318,6 +342,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         plotted.iter().cloned().map(Some).collect()
     };
     let moved = rows.iter().any(|r| r.result.object_path_m > 0.01);
+    let extras = numeric_extras(&rows);
     for xk in &x_keys {
         let (x_name, cats, stem): (String, Vec<String>, String) = match xk {
             Some(k) => (k.clone(), values_of(&rows, k), slug(k)),
@@ -383,6 +408,23 @@ pub fn main(a: Args) -> Result<(), CliError> {
             let f = format!("fill-{stem}");
             plots::save_category(dir, &f, &p)?;
             figures.push((f, format!("Filling metrics against {x_name}")));
+        }
+        for field in &extras {
+            let mean = |rs: &[&RunResult]| mean_ci(&extra_values(rs.iter().copied(), field));
+            let p = category_plot(
+                &rows,
+                &x_name,
+                cats.clone(),
+                &x_of,
+                s_key.as_deref(),
+                &mean,
+                format!("{name}: {field} (mean, 95 % CI)"),
+                field,
+                None,
+            );
+            let f = format!("extra-{}-{stem}", slug(field));
+            plots::save_category(dir, &f, &p)?;
+            figures.push((f, format!("{field} against {x_name}")));
         }
     }
 
@@ -590,6 +632,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 .map(|s| s.to_string()),
         );
     }
+    head.extend(extras.iter().map(|f| format!("`{f}` (mean)")));
     let _ = writeln!(md, "| {} |", head.join(" | "));
     let _ = writeln!(md, "|{}", "---|".repeat(head.len()));
     for s in &sets {
@@ -620,6 +663,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
             cells.push(fmt_opt(mean(&|r| r.object_robots.map(|n| n as f64)), 1));
             cells.push(fmt_opt(mean(&|r| r.convexity_after), 3));
             cells.push(fmt_opt(mean(&|r| r.cavity_filled), 3));
+        }
+        for field in &extras {
+            let xs = extra_values(res.iter(), field);
+            let m = (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64);
+            cells.push(fmt_opt(m, 3));
         }
         let cells: Vec<String> = cells.iter().map(|c| c.replace('|', "\\|")).collect();
         let _ = writeln!(md, "| {} |", cells.join(" | "));

@@ -98,8 +98,9 @@ fn describe(r: &RunResult) -> String {
         (Some(n), Some(c)) => format!(", {n} robots attached, convexity {c:.3}"),
         _ => String::new(),
     };
+    let extra: String = r.extra.iter().map(|(k, v)| format!(", {k} {v}")).collect();
     format!(
-        "{} seed {}: {} after {:.1} s ({} ticks, {} robots){gd}, object path {:.3} m, path efficiency {:.3}{fill}, {:.2} s wall time",
+        "{} seed {}: {} after {:.1} s ({} ticks, {} robots){gd}, object path {:.3} m, path efficiency {:.3}{fill}{extra}, {:.2} s wall time",
         r.scenario,
         r.seed,
         r.outcome.name(),
@@ -115,14 +116,7 @@ fn describe(r: &RunResult) -> String {
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
     let sc = load(&a.scenario, &a.set)?;
-    if let Some(c) = &a.controller {
-        if !formica::controllers::NAMES.contains(&c.as_str()) {
-            return Err(CliError::Input(format!(
-                "--controller: unknown controller `{c}`, expected one of {}",
-                formica::controllers::NAMES.join(", ")
-            )));
-        }
-    }
+    crate::check_controller(a.controller.as_deref())?;
     if let Some(d) = a.duration {
         if !(d > 0.0 && d.is_finite()) {
             return Err(CliError::Input(format!(

@@ -6,7 +6,9 @@
 //!   the varied keys), `sweep` (the file).
 //! - `trials`: `trial` (index in the full grid), `params` (canonical JSON), `seed`, one column
 //!   per varied key (named as the key, e.g. `robots.0.count`), then every `RunResult` metric
-//!   (`scenario_name` for the result's `scenario`). Primary key `(params, seed)`.
+//!   (`scenario_name` for the result's `scenario`), then one column per end-of-run field that
+//!   loop functions added (`RunResult::extra`, added as trials bring new ones; NULL in trials
+//!   without it; lists and tables as JSON text). Primary key `(params, seed)`.
 //! - `trajectories(params, seed, samples)`: the object's path as JSON `[[t, x, y, theta], ...]`,
 //!   when the sweep stores trajectories.
 
@@ -16,7 +18,7 @@ use anyhow::Context;
 use formica::{Outcome, RunResult};
 use rusqlite::types::Value as SqlValue;
 use rusqlite::{params, Connection, OptionalExtension};
-use std::collections::HashSet;
+use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
 
 /// The metric columns, in order, with their SQL types.
@@ -53,6 +55,8 @@ pub fn ident(name: &str) -> String {
 pub struct Store {
     /// The connection.
     pub conn: Connection,
+    /// Columns of `trials` known to exist (end-of-run fields are added as they come).
+    known: HashSet<String>,
 }
 
 /// One finished trial, ready to store.
@@ -76,6 +80,33 @@ fn sql_of(v: &toml::Value) -> SqlValue {
         toml::Value::Boolean(b) => SqlValue::Integer(i64::from(*b)),
         toml::Value::String(s) => SqlValue::Text(s.clone()),
         other => SqlValue::Text(crate::sweep::canonical_json(other)),
+    }
+}
+
+/// An end-of-run field as SQL: numbers as INTEGER or REAL, booleans as 0 / 1, lists and tables as
+/// JSON text.
+fn sql_of_json(v: &serde_json::Value) -> SqlValue {
+    use serde_json::Value as J;
+    match v {
+        J::Null => SqlValue::Null,
+        J::Bool(b) => SqlValue::Integer(i64::from(*b)),
+        J::Number(n) => match (n.as_i64(), n.as_f64()) {
+            (Some(i), _) => SqlValue::Integer(i),
+            (None, Some(f)) => SqlValue::Real(f),
+            (None, None) => SqlValue::Text(n.to_string()),
+        },
+        J::String(s) => SqlValue::Text(s.clone()),
+        other => SqlValue::Text(other.to_string()),
+    }
+}
+
+/// A stored end-of-run field back as JSON (NULL: absent).
+fn json_of_sql(v: SqlValue) -> Option<serde_json::Value> {
+    match v {
+        SqlValue::Null | SqlValue::Blob(_) => None,
+        SqlValue::Integer(i) => Some(i.into()),
+        SqlValue::Real(f) => serde_json::Number::from_f64(f).map(serde_json::Value::Number),
+        SqlValue::Text(t) => Some(t.into()),
     }
 }
 
@@ -109,7 +140,8 @@ impl Store {
             metrics.join(", ")
         ))
         .with_context(|| format!("creating the tables of {}", path.display()))?;
-        Ok(Store { conn })
+        let known = columns_of(&conn, "main")?.into_iter().collect();
+        Ok(Store { conn, known })
     }
 
     /// Opens an existing store (for reading); a missing file is an input error.
@@ -241,8 +273,46 @@ impl Store {
         Ok(n as usize)
     }
 
+    /// The columns of end-of-run fields: those neither fixed nor a varied key, in table order.
+    pub fn extra_columns(&self) -> Result<Vec<String>, CliError> {
+        let keys = self.keys()?;
+        Ok(self
+            .columns()?
+            .into_iter()
+            .filter(|c| {
+                !HEAD.contains(&c.as_str())
+                    && !METRICS.iter().any(|(m, _)| m == c)
+                    && !keys.contains(c)
+            })
+            .collect())
+    }
+
+    /// Adds a column for each end-of-run field of `row` that has none yet.
+    fn ensure_extra_columns(&mut self, row: &Row) -> Result<(), CliError> {
+        for k in row.result.extra.keys() {
+            if row.values.iter().any(|(v, _)| v == k) {
+                return Err(CliError::Input(format!(
+                    "end-of-run field `{k}` has the name of a varied key; rename one of them"
+                )));
+            }
+            if self.known.contains(k) {
+                continue;
+            }
+            let have = self.columns()?;
+            if !have.contains(k) {
+                self.conn
+                    .execute(&format!("ALTER TABLE trials ADD COLUMN {}", ident(k)), [])
+                    .with_context(|| format!("adding column {k}"))?;
+            }
+            self.known.extend(have);
+            self.known.insert(k.clone());
+        }
+        Ok(())
+    }
+
     /// Stores one trial (and its trajectory) in one transaction.
     pub fn insert(&mut self, row: &Row) -> Result<(), CliError> {
+        self.ensure_extra_columns(row)?;
         let r = &row.result;
         let mut cols: Vec<String> = HEAD.iter().map(|s| ident(s)).collect();
         let mut vals: Vec<SqlValue> = vec![
@@ -281,6 +351,10 @@ impl Store {
             cols.push(ident(name));
             vals.push(v);
         }
+        for (k, v) in &r.extra {
+            cols.push(ident(k));
+            vals.push(sql_of_json(v));
+        }
         let marks: Vec<String> = (1..=vals.len()).map(|i| format!("?{i}")).collect();
         let tx = self.conn.transaction().context("starting a transaction")?;
         tx.execute(
@@ -306,10 +380,14 @@ impl Store {
 
     /// Every stored trial, in grid order.
     pub fn results(&self) -> Result<Vec<StoredTrial>, CliError> {
+        let extras = self.extra_columns()?;
+        let fixed = HEAD.len() + METRICS.len();
         let sel: Vec<String> = HEAD
             .iter()
             .chain(METRICS.iter().map(|(n, _)| n))
-            .map(|s| ident(s))
+            .copied()
+            .chain(extras.iter().map(String::as_str))
+            .map(ident)
             .collect();
         let mut st = self
             .conn
@@ -327,6 +405,12 @@ impl Store {
                     _ => Outcome::Timeout,
                 };
                 let params: String = r.get(1)?;
+                let mut extra = BTreeMap::new();
+                for (i, k) in extras.iter().enumerate() {
+                    if let Some(v) = json_of_sql(r.get(fixed + i)?) {
+                        extra.insert(k.clone(), v);
+                    }
+                }
                 Ok(StoredTrial {
                     params: serde_json::from_str(&params).unwrap_or_default(),
                     params_json: params,
@@ -350,6 +434,7 @@ impl Store {
                         cavity_robots: r.get::<_, Option<i64>>(18)?.map(|n| n as usize),
                         false_stops: r.get::<_, Option<i64>>(19)?.map(|n| n as usize),
                         wall_time_s: r.get(20)?,
+                        extra,
                     },
                 })
             })
@@ -423,4 +508,65 @@ pub fn columns_of(conn: &Connection, db: &str) -> Result<Vec<String>, CliError> 
         out.push(r.context("reading the table layout")?);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(seed: u64, extra: serde_json::Value) -> Row {
+        let extra = extra.as_object().cloned().unwrap_or_default();
+        Row {
+            trial: seed as usize,
+            params: "{}".into(),
+            values: vec![("robots.0.count".into(), toml::Value::Integer(3))],
+            result: RunResult {
+                scenario: "s".into(),
+                seed,
+                extra: extra.into_iter().collect(),
+                ..RunResult::default()
+            },
+            trajectory: None,
+        }
+    }
+
+    #[test]
+    fn end_of_run_fields_become_columns_and_read_back() {
+        let dir = std::env::temp_dir().join(format!("formica-store-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let path = dir.join("t.db");
+        let mut store = Store::open(&path).unwrap();
+        store.set_meta("keys", r#"["robots.0.count"]"#).unwrap();
+        store.ensure_columns(&["robots.0.count".into()]).unwrap();
+        store
+            .insert(&row(
+                1,
+                serde_json::json!({ "b": 1.5, "a": [1, 2], "flag": true }),
+            ))
+            .unwrap();
+        store.insert(&row(2, serde_json::json!({}))).unwrap();
+        store
+            .insert(&row(3, serde_json::json!({ "c": 7 })))
+            .unwrap();
+        assert_eq!(store.extra_columns().unwrap(), ["a", "b", "flag", "c"]);
+        let back = store.results().unwrap();
+        let extra = |i: usize| serde_json::to_value(&back[i].result.extra).unwrap();
+        assert_eq!(
+            extra(0),
+            serde_json::json!({ "a": "[1,2]", "b": 1.5, "flag": 1 })
+        );
+        assert_eq!(extra(1), serde_json::json!({}));
+        assert_eq!(extra(2), serde_json::json!({ "c": 7 }));
+        // A field named like a varied key is refused, not stored under the key's column.
+        let e = store
+            .insert(&row(4, serde_json::json!({ "robots.0.count": 1 })))
+            .err()
+            .map(|e| match e {
+                CliError::Input(m) => m,
+                CliError::Other(e) => e.to_string(),
+            });
+        assert!(e.is_some_and(|m| m.contains("has the name of a varied key")));
+        drop(store);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -3,6 +3,7 @@
 //! A controller sees only its own [`Readings`] and its [`SensorLayout`], and draws randomness
 //! only from the per-robot generator it is handed. It never sees the world.
 
+use crate::geometry::Vec2;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 
@@ -83,6 +84,91 @@ impl ControllerFactory {
     }
 }
 
+/// Readings as one vector of fixed length per sensor layout, for controllers that take arrays
+/// (batched or written in another language): `proximity[0..P]`, `light[0..L]`, then `x`, `y`,
+/// `theta` (positioning), `beacon_x`, `beacon_y`, `has_beacon` (1 or 0), `attached` (1 or 0)
+/// and `time_s`. Sensors a controller does not read are zeros. Camera blobs are left out (their
+/// number varies).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FlatReadings {
+    proximity: usize,
+    light: usize,
+}
+
+impl FlatReadings {
+    /// Names of the scalar slots after the proximity and light readings.
+    pub const TAIL: [&'static str; 8] = [
+        "x",
+        "y",
+        "theta",
+        "beacon_x",
+        "beacon_y",
+        "has_beacon",
+        "attached",
+        "time_s",
+    ];
+
+    /// The vector layout for robots with `layout`.
+    pub fn of(layout: &SensorLayout) -> Self {
+        Self {
+            proximity: layout.proximity_angles.len(),
+            light: layout.light_angles.len(),
+        }
+    }
+
+    /// Length of the vector.
+    pub fn len(&self) -> usize {
+        self.proximity + self.light + Self::TAIL.len()
+    }
+
+    /// Whether the vector is empty (never: it always has the scalar slots).
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Slot names: `proximity0`, ..., `light0`, ..., then [`FlatReadings::TAIL`].
+    pub fn names(&self) -> Vec<String> {
+        (0..self.proximity)
+            .map(|i| format!("proximity{i}"))
+            .chain((0..self.light).map(|i| format!("light{i}")))
+            .chain(Self::TAIL.iter().map(|s| s.to_string()))
+            .collect()
+    }
+
+    /// Writes `r` into `out`, whose length must be [`FlatReadings::len`] (else an error and
+    /// `out` unchanged).
+    pub fn write(&self, r: &Readings, out: &mut [f32]) -> Result<(), String> {
+        if out.len() != self.len() {
+            return Err(format!(
+                "readings vector: expected length {}, got {}",
+                self.len(),
+                out.len()
+            ));
+        }
+        let (prox, rest) = out.split_at_mut(self.proximity);
+        let (light, tail) = rest.split_at_mut(self.light);
+        for (i, v) in prox.iter_mut().enumerate() {
+            *v = r.proximity.get(i).copied().unwrap_or(0.0);
+        }
+        for (i, v) in light.iter_mut().enumerate() {
+            *v = r.light.get(i).copied().unwrap_or(0.0);
+        }
+        let beacon = r.beacon.unwrap_or(Vec2::new(0.0, 0.0));
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        tail.copy_from_slice(&[
+            r.pose.x,
+            r.pose.y,
+            r.pose.theta,
+            beacon.x,
+            beacon.y,
+            flag(r.beacon.is_some()),
+            flag(r.attached),
+            r.time_s,
+        ]);
+        Ok(())
+    }
+}
+
 /// Parses controller parameters from a TOML table into `P`, rejecting unknown keys.
 pub fn parse_params<P: serde::de::DeserializeOwned>(
     params: Option<&toml::Table>,
@@ -107,4 +193,44 @@ pub fn check_params(positive: &[(&str, f32)], non_negative: &[(&str, f32)]) -> R
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Pose;
+    use crate::robot::RobotModel;
+
+    #[test]
+    fn flat_readings_have_a_fixed_layout() {
+        let layout = SensorLayout::of(
+            &RobotModel::khepera4(),
+            &crate::scenario::SensorConfig::default(),
+        );
+        let flat = FlatReadings::of(&layout);
+        assert_eq!(flat.len(), 8 + 8 + 8);
+        let names = flat.names();
+        assert_eq!(
+            (names[0].as_str(), names[8].as_str()),
+            ("proximity0", "light0")
+        );
+        assert_eq!(names[16..], FlatReadings::TAIL);
+        let r = Readings {
+            time_s: 2.5,
+            proximity: vec![0.5; 8],
+            light: Vec::new(), // not read by this controller
+            pose: Pose::new(1.0, -1.0, 0.25),
+            beacon: Some(Vec2::new(3.0, 4.0)),
+            blobs: Vec::new(),
+            scan_color: Vec::new(),
+            scan_range: Vec::new(),
+            attached: true,
+        };
+        let mut out = vec![9.0; flat.len()];
+        flat.write(&r, &mut out).unwrap();
+        assert_eq!(out[..8], [0.5; 8]);
+        assert_eq!(out[8..16], [0.0; 8]);
+        assert_eq!(out[16..], [1.0, -1.0, 0.25, 3.0, 4.0, 1.0, 1.0, 2.5]);
+        assert!(flat.write(&r, &mut out[1..]).is_err());
+    }
 }

@@ -1,11 +1,46 @@
 //! Experiment hooks (like ARGoS loop functions): per-tick metrics, stop rules and the result of
 //! a run. [`run`] drives one world from its first tick to its outcome.
+//!
+//! Every run gets the loop functions of its scenario's [`Registry`]: the built-in
+//! [`TransportHooks`] (`transport`) and [`FillHooks`](crate::metrics::FillHooks) (`fill`), then
+//! any a user registered. A loop function adds its own end-of-run fields to
+//! [`RunResult::extra`]:
+//!
+//! ```
+//! use formica::{LoopFunctions, Registry, RunResult, World};
+//!
+//! /// Counts the ticks on which some robot touched something.
+//! struct Contacts(u64);
+//!
+//! impl LoopFunctions for Contacts {
+//!     fn post_step(&mut self, world: &World) {
+//!         let touching = world.robots.iter().any(|r| r.readings.proximity.iter().any(|&p| p >= 1.0));
+//!         self.0 += u64::from(touching);
+//!     }
+//!     fn finish(&self, _world: &World, result: &mut RunResult) {
+//!         result.extra.insert("contact_ticks".into(), self.0.into());
+//!     }
+//! }
+//!
+//! let mut registry = Registry::builtin();
+//! registry.loop_functions("contacts", |_scenario, _world| Some(Box::new(Contacts(0))))?;
+//! let text = "[arena]\nsize = [1.0, 1.0]\n[[robots]]\ncontroller = \"random-walk\"\n\
+//!             placement = { poses = [[0.0, 0.0, 0.0]] }\n[run]\nduration_s = 30\n";
+//! let scenario = registry.parse(text, "box.toml")?;
+//! let (result, _) = formica::run(&scenario, &Default::default())?;
+//! assert!(result.extra["contact_ticks"].as_u64().is_some());
+//! let line = serde_json::to_string(&result)?;
+//! assert!(line.contains("\"contact_ticks\":"));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use crate::geometry::Vec2;
 use crate::physics::Tag;
+use crate::registry::{Registry, RegistryError};
 use crate::scenario::{Scenario, ScenarioError};
 use crate::world::{Overrides, World};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// How a run ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
@@ -80,6 +115,61 @@ pub struct RunResult {
     pub false_stops: Option<usize>,
     /// Wall-clock seconds the run took (the only field that is not deterministic).
     pub wall_time_s: f64,
+    /// End-of-run fields added by loop functions, flattened into the JSON line (after the
+    /// fields above) and stored as one result-store column each. A key that is one of
+    /// [`RunResult::RESERVED`] is renamed `LOOP.KEY` after the loop functions that wrote it.
+    #[serde(flatten, default)]
+    pub extra: BTreeMap<String, serde_json::Value>,
+}
+
+impl RunResult {
+    /// Names [`RunResult::extra`] keys cannot take: the fields of the JSON line, and the
+    /// result store's own columns (`trial`, `params`, `scenario_name`) and case key (`label`).
+    pub const RESERVED: &'static [&'static str] = &[
+        "scenario",
+        "seed",
+        "outcome",
+        "sim_time_s",
+        "ticks",
+        "robots",
+        "controller",
+        "goal_distance_m",
+        "object_path_m",
+        "path_efficiency",
+        "object_robots",
+        "fill_time_s",
+        "convexity_before",
+        "convexity_after",
+        "cavity_filled",
+        "cavity_capacity",
+        "cavity_robots",
+        "false_stops",
+        "wall_time_s",
+        "trial",
+        "params",
+        "scenario_name",
+        "label",
+    ];
+
+    /// Renames the `extra` keys that are reserved (or empty) to `owner.KEY`.
+    fn rename_reserved_extra(&mut self, owner: &str) {
+        let clash: Vec<String> = self
+            .extra
+            .keys()
+            .filter(|k| k.is_empty() || Self::RESERVED.contains(&k.as_str()))
+            .cloned()
+            .collect();
+        for k in clash {
+            if let Some(v) = self.extra.remove(&k) {
+                let renamed = if k.is_empty() {
+                    owner.to_string()
+                } else {
+                    format!("{owner}.{k}")
+                };
+                self.extra.insert(renamed, v);
+            }
+        }
+    }
 }
 
 /// One recorded sample of a trajectory.
@@ -106,16 +196,41 @@ pub struct Trajectories {
     pub robots: Vec<Sample>,
 }
 
-/// Hooks called around each tick, like ARGoS loop functions.
-pub trait LoopFunctions {
+/// Hooks called around each tick, like ARGoS loop functions. Register a builder of them with
+/// [`Registry::loop_functions`].
+pub trait LoopFunctions: Send {
     /// After each tick.
     fn post_step(&mut self, _world: &World) {}
     /// Whether the run is over, and how.
     fn is_finished(&self, _world: &World) -> Option<Outcome> {
         None
     }
-    /// Fills in metrics at the end.
+    /// Fills in metrics at the end: fields of the result, or its [`RunResult::extra`] map.
     fn finish(&self, _world: &World, _result: &mut RunResult) {}
+}
+
+/// Registers the built-in loop functions: `transport`, then `fill`.
+pub fn register(registry: &mut Registry) -> Result<(), RegistryError> {
+    registry
+        .loop_functions("transport", |sc, world| {
+            Some(Box::new(TransportHooks::new(sc, world)))
+        })?
+        .loop_functions("fill", |sc, world| {
+            Some(Box::new(crate::metrics::FillHooks::new(sc, world)))
+        })?;
+    Ok(())
+}
+
+/// The goal radius of the success rule (m): the scenario's `stop.goal_radius`, else (Queiroz &
+/// MacRae) half the goal size plus half the target object's size, plus 5 cm.
+pub fn goal_radius(sc: &Scenario, world: &World) -> Option<f32> {
+    let stop = &sc.spec.stop;
+    stop.goal_radius.or_else(|| {
+        world.target.map(|t| {
+            let size = object_size(world, t);
+            (stop.goal_size + size) / 2.0 + 0.05
+        })
+    })
 }
 
 /// The standard transport metrics and stop rules: path length, goal distance, goal / wall.
@@ -131,14 +246,8 @@ impl TransportHooks {
     /// Hooks for a world built from `sc`.
     pub fn new(sc: &Scenario, world: &World) -> Self {
         let stop = &sc.spec.stop;
-        let goal_radius = stop.goal_radius.or_else(|| {
-            world.target.map(|t| {
-                let size = object_size(world, t);
-                (stop.goal_size + size) / 2.0 + 0.05
-            })
-        });
         Self {
-            goal_radius,
+            goal_radius: goal_radius(sc, world),
             on_goal: stop.on_goal,
             on_wall: stop.on_wall,
             last: world.target.map(|t| world.object_center(t)),
@@ -232,7 +341,7 @@ pub struct RunOptions {
 pub struct Run {
     /// The world.
     pub world: World,
-    hooks: Vec<Box<dyn LoopFunctions>>,
+    hooks: Vec<(String, Box<dyn LoopFunctions>)>,
     max_ticks: u64,
     traj: Option<Trajectories>,
     robot_every: u64,
@@ -243,16 +352,13 @@ pub struct Run {
 }
 
 impl Run {
-    /// Builds the world and the standard hooks (transport and filling metrics).
+    /// Builds the world and the loop functions of the scenario's registry (the built-ins:
+    /// transport and filling metrics).
     pub fn new(sc: &Scenario, opts: &RunOptions) -> Result<Run, ScenarioError> {
         let started = std::time::Instant::now();
         let world = World::new(sc, &opts.overrides)?;
-        let transport = TransportHooks::new(sc, &world);
-        let goal_radius = transport.goal_radius();
-        let hooks: Vec<Box<dyn LoopFunctions>> = vec![
-            Box::new(transport),
-            Box::new(crate::metrics::FillHooks::new(sc, &world)),
-        ];
+        let goal_radius = goal_radius(sc, &world);
+        let hooks = sc.registry().build_loop_functions(sc, &world);
         let duration = opts.overrides.duration_s.unwrap_or(sc.spec.run.duration_s);
         let max_ticks = (f64::from(duration) / f64::from(world.tick_s)).round() as u64;
         let mut traj = opts.record.then(Trajectories::default);
@@ -288,7 +394,7 @@ impl Run {
             return self.outcome;
         }
         self.world.step();
-        for h in self.hooks.iter_mut() {
+        for (_, h) in self.hooks.iter_mut() {
             h.post_step(&self.world);
         }
         if let Some(tr) = self.traj.as_mut() {
@@ -298,7 +404,10 @@ impl Run {
                 self.world.tick.is_multiple_of(self.robot_every),
             );
         }
-        self.outcome = self.hooks.iter().find_map(|h| h.is_finished(&self.world));
+        self.outcome = self
+            .hooks
+            .iter()
+            .find_map(|(_, h)| h.is_finished(&self.world));
         if self.outcome.is_none() && self.world.tick >= self.max_ticks {
             self.outcome = Some(Outcome::Timeout);
         }
@@ -327,8 +436,9 @@ impl Run {
             controller: controller_names(world),
             ..RunResult::default()
         };
-        for h in &self.hooks {
+        for (name, h) in &self.hooks {
             h.finish(world, &mut result);
+            result.rename_reserved_extra(name);
         }
         result.wall_time_s = self.started.elapsed().as_secs_f64();
         result

@@ -8,6 +8,9 @@
 //! Data takes one way: [`scenario`] file -> [`world::World`] -> tick (act, physics, sense,
 //! control) -> [`experiment`] stop rules and metrics -> [`experiment::RunResult`].
 //!
+//! The names a scenario uses (controllers, robot models) and the loop functions every run gets
+//! come from a [`Registry`]: the built-ins, and whatever a user's program adds.
+//!
 //! ```no_run
 //! use formica::{experiment, scenario::Scenario};
 //! let sc = Scenario::load("scenarios/seed-transport.toml".as_ref()).unwrap();
@@ -24,11 +27,13 @@ pub mod metrics;
 pub mod noise;
 pub mod ops;
 pub mod physics;
+pub mod registry;
 pub mod robot;
 pub mod scenario;
 pub mod sensors;
 pub mod world;
 
-pub use experiment::{run, Outcome, RunOptions, RunResult, Trajectories};
+pub use experiment::{run, LoopFunctions, Outcome, RunOptions, RunResult, Trajectories};
+pub use registry::{Registry, RegistryError};
 pub use scenario::{Scenario, ScenarioError};
 pub use world::{Overrides, World};

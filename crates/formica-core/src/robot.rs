@@ -1,8 +1,10 @@
-//! Built-in robot models: body, drive and sensor layouts (Khepera IV, foot-bot, e-puck).
+//! Robot models (body, drive and sensor layouts) and the built-in ones: Khepera IV, foot-bot,
+//! e-puck.
 //!
 //! Figures come from ARGoS 3 and its Khepera IV plugin (see `shared/reference/robots.md`).
 
 use crate::ops;
+use crate::registry::{Registry, RegistryError};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
 
@@ -73,10 +75,13 @@ impl ProximityCurve {
     }
 }
 
-/// A robot model: body, drive limits and sensor layout.
+/// A robot model: body, drive limits and sensor layout. A scenario names one registered in its
+/// [`Registry`] (`model = "..."`); a new model usually starts from a built-in one:
+/// `RobotModel { max_speed: 0.3, ..RobotModel::khepera4() }`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RobotModel {
-    /// Which model this is.
+    /// The built-in model this one is or derives from: a label only, nothing depends on it (the
+    /// registered name is [`Group::model_name`](crate::world::Group::model_name)).
     pub kind: ModelKind,
     /// Body radius (m).
     pub radius: f32,
@@ -117,6 +122,28 @@ fn ring(n: usize, first_deg: f32) -> Vec<f32> {
         .map(|i| (first_deg + 360.0 * i as f32 / n as f32).to_radians())
         .map(crate::geometry::wrap_angle)
         .collect()
+}
+
+impl ModelKind {
+    /// Every built-in model, in the order they are registered.
+    pub const ALL: [ModelKind; 3] = [ModelKind::Khepera4, ModelKind::FootBot, ModelKind::EPuck];
+
+    /// The name scenarios use for it (`model = "..."`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelKind::Khepera4 => "khepera4",
+            ModelKind::FootBot => "foot-bot",
+            ModelKind::EPuck => "e-puck",
+        }
+    }
+}
+
+/// Registers the built-in models under their scenario names (`khepera4`, `foot-bot`, `e-puck`).
+pub fn register(registry: &mut Registry) -> Result<(), RegistryError> {
+    for kind in ModelKind::ALL {
+        registry.model(kind.name(), RobotModel::of(kind))?;
+    }
+    Ok(())
 }
 
 impl RobotModel {

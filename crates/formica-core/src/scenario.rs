@@ -6,6 +6,7 @@
 
 use crate::geometry::{Part, Primitive};
 use crate::noise::{self, NoiseModel, NoisePreset};
+use crate::registry::Registry;
 use crate::robot::ModelKind;
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -529,13 +530,14 @@ impl SensorOptions {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RobotGroup {
-    /// Robot model.
-    #[serde(default)]
-    pub model: ModelKind,
+    /// Robot model: a name in the scenario's [`Registry`] (built in: `khepera4`, `foot-bot`,
+    /// `e-puck`).
+    #[serde(default = "default_model")]
+    pub model: Spanned<String>,
     /// Number of robots (default: the number of explicit poses).
     #[serde(default)]
     pub count: Option<usize>,
-    /// Controller name (see `formica::controllers::NAMES`).
+    /// Controller: a name in the scenario's [`Registry`].
     pub controller: Spanned<String>,
     /// Controller parameters.
     #[serde(default)]
@@ -548,6 +550,10 @@ pub struct RobotGroup {
     /// Sensor noise and ranges (default: the `"realistic"` noise preset).
     #[serde(default)]
     pub sensors: SensorOptions,
+}
+
+fn default_model() -> Spanned<String> {
+    Spanned::new(0..0, crate::robot::ModelKind::Khepera4.name().to_string())
 }
 
 /// Run settings.
@@ -666,7 +672,8 @@ pub struct ScenarioSpec {
     pub stop: StopSpec,
 }
 
-/// A loaded, validated scenario together with its source text (for error positions).
+/// A loaded, validated scenario together with its source text (for error positions) and the
+/// registry its names were checked against (and resolve in when a world is built).
 #[derive(Debug, Clone)]
 pub struct Scenario {
     /// What the file says.
@@ -676,6 +683,7 @@ pub struct Scenario {
     /// Name for results.
     pub name: String,
     text: String,
+    registry: Registry,
 }
 
 impl fmt::Display for Scenario {
@@ -694,18 +702,34 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 }
 
 impl Scenario {
-    /// Reads and validates a scenario file.
+    /// Reads and validates a scenario file against the process-wide [`Registry::global`].
     pub fn load(path: &std::path::Path) -> Result<Scenario, ScenarioError> {
+        Self::load_in(path, &Registry::global())
+    }
+
+    pub(crate) fn load_in(
+        path: &std::path::Path,
+        registry: &Registry,
+    ) -> Result<Scenario, ScenarioError> {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
             file: file.clone(),
             message: e.to_string(),
         })?;
-        Self::parse(&text, &file)
+        Self::parse_in(&text, &file, registry)
     }
 
-    /// Parses and validates scenario text; `file` names it in errors.
+    /// Parses and validates scenario text against the process-wide [`Registry::global`];
+    /// `file` names it in errors.
     pub fn parse(text: &str, file: &str) -> Result<Scenario, ScenarioError> {
+        Self::parse_in(text, file, &Registry::global())
+    }
+
+    pub(crate) fn parse_in(
+        text: &str,
+        file: &str,
+        registry: &Registry,
+    ) -> Result<Scenario, ScenarioError> {
         if let Some((at, token)) = non_finite_literal(text) {
             let (line, column) = line_col(text, at);
             return Err(ScenarioError::Invalid {
@@ -734,6 +758,7 @@ impl Scenario {
             file: file.to_string(),
             name,
             text: text.to_string(),
+            registry: registry.clone(),
         };
         sc.validate()?;
         Ok(sc)
@@ -748,13 +773,24 @@ impl Scenario {
     ///
     /// `origin` is `(file name, text)` of the file the overrides come from (a sweep file): errors
     /// name that file, the position of the offending key in it, the key and, for values the
-    /// scenario rejects, what [`Scenario::parse`] said.
+    /// scenario rejects, what [`Scenario::parse`] said. Names resolve in [`Registry::global`].
     pub fn parse_with_overrides(
         text: &str,
         file: &str,
         overrides: &[(String, toml::Value)],
         origin: (&str, &str),
     ) -> Result<Scenario, ScenarioError> {
+        Self::parse_with_overrides_in(text, file, overrides, origin, &Registry::global())
+    }
+
+    pub(crate) fn parse_with_overrides_in(
+        text: &str,
+        file: &str,
+        overrides: &[(String, toml::Value)],
+        origin: (&str, &str),
+        registry: &Registry,
+    ) -> Result<Scenario, ScenarioError> {
+        let parse = |text: &str| Scenario::parse_in(text, file, registry);
         let (origin_file, origin_text) = origin;
         // Where the key is written in the origin file (quoted or bare), for the message.
         let at = |key: &str, message: String| {
@@ -845,7 +881,7 @@ impl Scenario {
             set_path(&mut root, key, value.clone())
                 .map_err(|m| at(key, format!("`{key}`: {m} (in {file})")))?;
         }
-        let full = match Scenario::parse(&write(&root)?, file) {
+        let full = match parse(&write(&root)?) {
             Ok(sc) => return Ok(sc),
             Err(e) => e,
         };
@@ -857,16 +893,16 @@ impl Scenario {
         // Name the first override after which the scenario no longer validates; if the base
         // file is already invalid by itself, report it at its own position.
         let mut partial = base;
-        if let Err(e) = Scenario::parse(&write(&partial)?, file) {
+        if let Err(e) = parse(&write(&partial)?) {
             if message_of(&e) == message_of(&full) {
-                Scenario::parse(text, file)?;
+                parse(text)?;
             }
         }
         for (key, value) in overrides {
             // Cannot fail: the same path was set above.
             set_path(&mut partial, key, value.clone())
                 .map_err(|m| at(key, format!("`{key}`: {m}")))?;
-            if let Err(e) = Scenario::parse(&write(&partial)?, file) {
+            if let Err(e) = parse(&write(&partial)?) {
                 return Err(at(
                     key,
                     format!("`{key}` = {value}: {file} rejects it: {}", message_of(&e)),
@@ -890,6 +926,11 @@ impl Scenario {
     /// The source text.
     pub fn text(&self) -> &str {
         &self.text
+    }
+
+    /// The registry this scenario's names were checked against and resolve in.
+    pub fn registry(&self) -> &Registry {
+        &self.registry
     }
 
     /// The parts of object `i`, validated.
@@ -1066,13 +1107,24 @@ impl Scenario {
             if let Err(m) = gr.sensors.validate() {
                 return Err(self.error_at(grp.span(), format!("robots[{g}].{m}")));
             }
-            if !crate::controllers::NAMES.contains(&gr.controller.get_ref().as_str()) {
+            let model = gr.model.get_ref();
+            if self.registry.robot_model(model).is_none() {
+                // A defaulted model has no position of its own: point at the group.
+                let span = Some(gr.model.span())
+                    .filter(|s| !s.is_empty())
+                    .unwrap_or_else(|| grp.span());
+                return Err(self.error_at(
+                    span,
+                    format!("robots[{g}].model: {}", self.registry.unknown_model(model)),
+                ));
+            }
+            let controller = gr.controller.get_ref();
+            if !self.registry.has_controller(controller) {
                 return Err(self.error_at(
                     gr.controller.span(),
                     format!(
-                        "robots[{g}].controller: unknown controller `{}`, expected one of {}",
-                        gr.controller.get_ref(),
-                        crate::controllers::NAMES.join(", ")
+                        "robots[{g}].controller: {}",
+                        self.registry.unknown_controller(controller)
                     ),
                 ));
             }

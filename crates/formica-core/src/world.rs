@@ -2,7 +2,6 @@
 //! that holds the tick order ([`World::step`]): act, physics sub-steps, sense, control.
 
 use crate::controller::{Actuation, AttachCommand, Controller, ControllerFactory, RobotRng};
-use crate::controllers;
 use crate::geometry::{compound_shape, part_outlines, Part, Pose, Vec2};
 use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
@@ -55,6 +54,8 @@ impl Object {
 pub struct Group {
     /// Robot model.
     pub model: RobotModel,
+    /// The model's name in the registry.
+    pub model_name: String,
     /// Sensor layout handed to controllers.
     pub layout: SensorLayout,
     /// Sensor settings (the noise preset with the file's overrides).
@@ -178,7 +179,8 @@ pub fn rng_stream(seed: u64, kind: u64, index: u64) -> RobotRng {
 }
 
 impl World {
-    /// Builds the world a scenario describes, for one seed.
+    /// Builds the world a scenario describes, for one seed. Controllers and robot models come
+    /// from the scenario's [`Registry`](crate::Registry).
     pub fn new(sc: &Scenario, ov: &Overrides) -> Result<World, ScenarioError> {
         let spec = &sc.spec;
         let seed = ov.seed.unwrap_or(spec.run.seed);
@@ -270,22 +272,27 @@ impl World {
         let mut placed: Vec<(Vec2, f32)> = Vec::new();
         for (g, grp_s) in spec.robots.iter().enumerate() {
             let grp = grp_s.get_ref();
-            let model = RobotModel::of(grp.model);
-            let sensors = grp.sensors.resolve(grp.model);
+            let registry = sc.registry();
+            let model_name = grp.model.get_ref().clone();
+            let model = registry.robot_model(&model_name).cloned().ok_or_else(|| {
+                let m = registry.unknown_model(&model_name);
+                sc.error_at(grp.model.span(), format!("robots[{g}].model: {m}"))
+            })?;
+            let sensors = grp.sensors.resolve(model.kind);
             let layout = SensorLayout::of(&model, &sensors);
             let name = ov
                 .controller
                 .clone()
                 .unwrap_or_else(|| grp.controller.get_ref().clone());
-            let factory =
-                controllers::factory(&name, grp.params.as_ref().map(|p| p.get_ref()), &layout)
-                    .map_err(|m| {
-                        let span = match (&grp.params, ov.controller.is_some()) {
-                            (Some(p), false) => p.span(),
-                            _ => grp.controller.span(),
-                        };
-                        sc.error_at(span, format!("robots[{g}] controller `{name}`: {m}"))
-                    })?;
+            let factory = registry
+                .build_controller(&name, grp.params.as_ref().map(|p| p.get_ref()), &layout)
+                .map_err(|m| {
+                    let span = match (&grp.params, ov.controller.is_some()) {
+                        (Some(p), false) => p.span(),
+                        _ => grp.controller.span(),
+                    };
+                    sc.error_at(span, format!("robots[{g}] controller `{name}`: {m}"))
+                })?;
             let count = sc.group_count(g);
             let poses = place_group(
                 sc,
@@ -319,6 +326,7 @@ impl World {
             }
             groups.push(Group {
                 model,
+                model_name,
                 layout,
                 sensors,
                 controller: name,

@@ -5,7 +5,6 @@ use formica::experiment::{Run, RunOptions};
 use formica::geometry::Vec2;
 use formica::ops;
 use formica::physics::{Nearby, Tag};
-use formica::robot::ModelKind;
 use formica::scenario::Color;
 use formica::sensors::light_blocked;
 use formica::{Overrides, Scenario, ScenarioError, World};
@@ -103,7 +102,7 @@ struct ObjectScene<'a> {
 
 #[derive(Serialize)]
 struct GroupOut<'a> {
-    model: ModelKind,
+    model: &'a str,
     controller: &'a str,
     radius: f32,
     proximity_angles: &'a [f32],
@@ -394,7 +393,7 @@ impl Sim {
                 .groups
                 .iter()
                 .map(|g| GroupOut {
-                    model: g.model.kind,
+                    model: &g.model_name,
                     controller: &g.controller,
                     radius: g.model.radius,
                     proximity_angles: &g.model.proximity_angles,

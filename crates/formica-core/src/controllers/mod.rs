@@ -1,7 +1,8 @@
-//! Built-in controllers, by name.
+//! The built-in controllers. Each module's `factory` parses its parameters and builds its
+//! controllers; [`register`] adds them all to a [`Registry`] through the same call a user's
+//! controller goes through.
 
-use crate::controller::ControllerFactory;
-use crate::sensors::SensorLayout;
+use crate::registry::{Registry, RegistryError};
 
 pub mod constant;
 pub mod fill_transport;
@@ -9,30 +10,13 @@ pub mod filling;
 pub mod occlusion;
 pub mod random_walk;
 
-/// Names accepted in scenario files and on the command line.
-pub const NAMES: &[&str] = &[
-    "random-walk",
-    "constant",
-    "filling",
-    "fill-transport",
-    "occlusion",
-];
-
-/// Builds the factory for controller `name` with `params` for robots with `layout`.
-pub fn factory(
-    name: &str,
-    params: Option<&toml::Table>,
-    layout: &SensorLayout,
-) -> Result<ControllerFactory, String> {
-    match name {
-        "random-walk" => random_walk::factory(params, layout),
-        "constant" => constant::factory(params, layout),
-        "filling" => filling::factory(params, layout),
-        "fill-transport" => fill_transport::factory(params, layout),
-        "occlusion" => occlusion::factory(params, layout),
-        _ => Err(format!(
-            "unknown controller `{name}`, expected one of {}",
-            NAMES.join(", ")
-        )),
-    }
+/// Registers the built-in controllers under their scenario names.
+pub fn register(registry: &mut Registry) -> Result<(), RegistryError> {
+    registry
+        .controller("random-walk", random_walk::factory)?
+        .controller("constant", constant::factory)?
+        .controller("filling", filling::factory)?
+        .controller("fill-transport", fill_transport::factory)?
+        .controller("occlusion", occlusion::factory)?;
+    Ok(())
 }

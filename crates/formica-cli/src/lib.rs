@@ -1,0 +1,172 @@
+//! The `formica` command as a library: every subcommand (run, check, sweep, report, serve,
+//! record, bench, export, merge, slurm) over the controllers, loop functions and robot models of
+//! a [`Registry`]. The `formica` binary is
+//! `fn main() -> ExitCode { formica_cli::main_with(Registry::builtin()) }`; a program that adds
+//! its own controller to the registry first gets the same command with that controller in it:
+//!
+//! ```no_run
+//! use formica::Registry;
+//! use std::process::ExitCode;
+//!
+//! fn main() -> Result<ExitCode, formica::RegistryError> {
+//!     let mut registry = Registry::builtin();
+//!     // A copy of `constant` under another name; a real program registers its own builder.
+//!     registry.controller("my-constant", formica::controllers::constant::factory)?;
+//!     Ok(formica_cli::main_with(registry))
+//! }
+//! ```
+
+use clap::{Parser, Subcommand};
+use formica::Registry;
+use std::ffi::OsString;
+use std::process::ExitCode;
+
+#[macro_use]
+mod console;
+
+mod cmd_bench;
+mod cmd_check;
+mod cmd_export;
+mod cmd_merge;
+mod cmd_record;
+mod cmd_report;
+mod cmd_run;
+mod cmd_serve;
+mod cmd_slurm;
+mod cmd_sweep;
+mod output;
+mod plots;
+mod stats;
+mod store;
+mod sweep;
+
+/// Formica: a simulator and behaviour suite for cooperative transport by robot swarms.
+#[derive(Parser)]
+#[command(name = "formica", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scenario headless (one seed, or a range of seeds in parallel).
+    Run(cmd_run::Args),
+    /// Validate a scenario file and describe what it sets up.
+    Check(cmd_check::Args),
+    /// Measure robot-ticks per second on the standard scaled transport world.
+    Bench(cmd_bench::Args),
+    /// Run a parameter sweep into a SQLite result store (resumable).
+    Sweep(cmd_sweep::Args),
+    /// Export a result store to CSV.
+    Export(cmd_export::Args),
+    /// Plots and a Markdown summary from a result store.
+    Report(cmd_report::Args),
+    /// Merge shard result stores into one.
+    Merge(cmd_merge::Args),
+    /// Write (and optionally submit) a Slurm job-array script for a sweep.
+    Slurm(cmd_slurm::Args),
+    /// Serve a live viewer of a scenario on 127.0.0.1.
+    Serve(cmd_serve::Args),
+    /// Render a run to an animated GIF.
+    Record(cmd_record::Args),
+}
+
+/// An error with the exit code it deserves: 2 for bad input, 1 otherwise.
+#[derive(Debug)]
+pub(crate) enum CliError {
+    /// The user's input (scenario file, arguments) is wrong.
+    Input(String),
+    /// Something else failed (I/O, ...).
+    Other(anyhow::Error),
+}
+
+impl From<formica::ScenarioError> for CliError {
+    fn from(e: formica::ScenarioError) -> Self {
+        CliError::Input(e.to_string())
+    }
+}
+
+impl From<anyhow::Error> for CliError {
+    fn from(e: anyhow::Error) -> Self {
+        CliError::Other(e)
+    }
+}
+
+/// Checks a `--controller` option against the process-wide registry.
+pub(crate) fn check_controller(name: Option<&str>) -> Result<(), CliError> {
+    match name {
+        Some(c) => {
+            let registry = Registry::global();
+            if registry.has_controller(c) {
+                Ok(())
+            } else {
+                Err(CliError::Input(format!(
+                    "--controller: {}",
+                    registry.unknown_controller(c)
+                )))
+            }
+        }
+        None => Ok(()),
+    }
+}
+
+/// Runs the `formica` command line of this process (`std::env::args`) with `registry` as the
+/// process-wide registry ([`Registry::install`]): scenario files, sweeps, `--controller` and
+/// `--set` resolve controller and model names in it, and every run gets its loop functions.
+/// Returns the exit code: 0 on success, 2 for bad input (a scenario error names
+/// `file:line:column`) or bad arguments, 1 for other failures.
+pub fn main_with(registry: Registry) -> ExitCode {
+    main_from(registry, std::env::args_os())
+}
+
+/// [`main_with`] for the given command line (`args[0]` is the program name).
+///
+/// ```
+/// use formica::Registry;
+/// use std::process::ExitCode;
+///
+/// let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/seed-transport.toml");
+/// let code = formica_cli::main_from(Registry::builtin(), ["formica", "check", scenario]);
+/// assert_eq!(code, ExitCode::SUCCESS);
+/// let code = formica_cli::main_from(Registry::builtin(), ["formica", "check", "missing.toml"]);
+/// assert_eq!(code, ExitCode::from(2));
+/// ```
+pub fn main_from<I, T>(registry: Registry, args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    registry.install();
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            // Help and version go to stdout with code 0, usage errors to stderr with code 2.
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+        }
+    };
+    let r = match cli.command {
+        Command::Run(a) => cmd_run::main(a),
+        Command::Check(a) => cmd_check::main(a),
+        Command::Bench(a) => cmd_bench::main(a),
+        Command::Sweep(a) => cmd_sweep::main(a),
+        Command::Export(a) => cmd_export::main(a),
+        Command::Report(a) => cmd_report::main(a),
+        Command::Merge(a) => cmd_merge::main(a),
+        Command::Slurm(a) => cmd_slurm::main(a),
+        Command::Serve(a) => cmd_serve::main(a),
+        Command::Record(a) => cmd_record::main(a),
+    };
+    match r {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError::Input(m)) => {
+            eprintln!("error: {m}");
+            ExitCode::from(2)
+        }
+        Err(CliError::Other(e)) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
