@@ -110,7 +110,7 @@ pub struct RunResult {
     /// Attached robots whose centre lies in the cavity.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cavity_robots: Option<usize>,
-    /// Attached robots whose centre lies outside the object's hull.
+    /// Attached robots outside the object's hull (their centre beyond it by over half a radius).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub false_stops: Option<usize>,
     /// Wall-clock seconds the run took (the only field that is not deterministic).

@@ -291,15 +291,18 @@ pub fn pack_discs(
     best
 }
 
-/// Attached robots of object `obj` whose centres lie in its cavity, and those whose centres lie
-/// outside its hull (false stops).
+/// Attached robots of object `obj` whose centres lie in its cavity, and those outside its hull
+/// (false stops): more than half outside, their centre beyond the hull by more than half their
+/// radius. A robot touching the outside of the hull (the seed's false stop against a U's back
+/// wall) is one; a robot astride the mouth of a cavity, its centre just past the hull's edge,
+/// is neither.
 pub fn classify_attached(world: &World, obj: usize) -> (usize, usize) {
     let hull = object_hull(world, obj);
     let (mut inside, mut outside) = (0, 0);
-    for (c, _) in attached_discs(world, obj) {
+    for (c, r) in attached_discs(world, obj) {
         if in_cavity(world, obj, &hull, c) {
             inside += 1;
-        } else if inside_depth(&hull, c) < 0.0 {
+        } else if inside_depth(&hull, c) < -0.5 * r {
             outside += 1;
         }
     }

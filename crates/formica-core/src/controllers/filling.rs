@@ -99,6 +99,11 @@ pub struct Params {
     /// stacked past a shallow cavity's mouth). 0 turns the check off. Default 190 (one bin of
     /// slack).
     pub surround_gap_deg: f32,
+    /// With the surround check on: where the object surrounds the robot, this many firing
+    /// object-like sensors (of 8) suffice if one of them touches an attached (blue) robot: the
+    /// filling front, such as the last row at a cavity's mouth, where the pseudo object
+    /// surrounds the robot over about pi only. 0 turns it off. Default 3.
+    pub front_count: u32,
     /// Firing object-like sensors (of 8; scaled for other rings) that make the object surround
     /// the robot over more than pi. Default 4 (the seed's).
     pub stop_count: u32,
@@ -158,6 +163,7 @@ impl Default for Params {
             perception: FillPerception::Scan,
             object_color: Color::Green,
             surround_gap_deg: 190.0,
+            front_count: 3,
             stop_count: 4,
             strong_reading: 0.7,
             strong_count: 2,
@@ -278,6 +284,10 @@ impl FillState {
 /// What the proximity ring and camera say this tick.
 #[derive(Debug, Clone, Copy, Default)]
 struct Percept {
+    /// Firing object-like sensors that touch an attached (blue) robot.
+    blue: usize,
+    /// The object surrounds the robot (the surround check passed, and is on).
+    inside: bool,
     /// Summed vector of object-like readings (robot frame).
     obj: Vec2,
     /// Largest object-like reading.
@@ -318,6 +328,8 @@ pub struct Filler {
     last_angle: Option<f32>,
     stop_needed: usize,
     strong_needed: usize,
+    /// Firing sensors that suffice at the filling front (0: off).
+    front_needed: usize,
     /// Whether the stop test runs (off: follow edges for ever, as pushers do).
     stopping: bool,
     /// Ticks of the current check, and how many of them passed the stop test.
@@ -331,6 +343,7 @@ impl Filler {
         let n = layout.proximity_angles.len().max(1);
         let stop_needed = ((p.stop_count as usize * n) as f32 / 8.0).ceil() as usize;
         let strong_needed = ((p.strong_count as usize * n) as f32 / 8.0).ceil().max(1.0) as usize;
+        let front_needed = ((p.front_count as usize * n) as f32 / 8.0).ceil() as usize;
         Filler {
             p,
             layout: layout.clone(),
@@ -350,6 +363,7 @@ impl Filler {
             checks: 0,
             passes: 0,
             strong_needed,
+            front_needed,
         }
     }
 
@@ -440,6 +454,18 @@ impl Filler {
         gap as f32 * 360.0 / n as f32 <= self.p.surround_gap_deg
     }
 
+    /// Whether a proximity hit at bearing `a` (robot frame) falls on scan bins showing an
+    /// attached (blue) robot within proximity range.
+    fn blue_at(&self, r: &Readings, a: f32) -> bool {
+        let reach = self.layout.radius + self.layout.proximity_range + 0.02;
+        let half = PI / self.layout.scan_angles.len().max(1) as f32 + 0.15;
+        r.scan_color
+            .iter()
+            .zip(&r.scan_range)
+            .zip(&self.layout.scan_angles)
+            .any(|((c, d), b)| *c == Color::Blue && *d <= reach && wrap_angle(a - b).abs() <= half)
+    }
+
     /// Whether a proximity hit at bearing `a` (robot frame) is explained by a moving neighbour.
     fn neighbour_at(&self, r: &Readings, a: f32) -> bool {
         let reach = self.layout.radius + self.layout.proximity_range + 0.02;
@@ -477,6 +503,10 @@ impl Filler {
         let mut out = Percept {
             object_seen: !self.p.require_object
                 || (self.object_seen(r) && self.object_surrounds(r)),
+            inside: self.p.require_object
+                && self.p.surround_gap_deg > 0.0
+                && self.p.perception == FillPerception::Scan
+                && self.object_surrounds(r),
             ..Percept::default()
         };
         for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
@@ -494,6 +524,9 @@ impl Filler {
                 out.obj_max = out.obj_max.max(*v);
                 if *v > self.p.fire_threshold {
                     out.count += 1;
+                    if self.front_needed > 0 && self.blue_at(r, *a) {
+                        out.blue += 1;
+                    }
                 }
                 if *v >= self.p.strong_reading {
                     out.strong += 1;
@@ -505,7 +538,9 @@ impl Filler {
 
     /// Whether the stop test passes on this percept.
     fn surrounded(&self, pc: &Percept) -> bool {
-        pc.count >= self.stop_needed && pc.object_seen
+        let front =
+            self.front_needed > 0 && pc.inside && pc.blue > 0 && pc.count >= self.front_needed;
+        (pc.count >= self.stop_needed || front) && pc.object_seen
     }
 
     /// Whether a check is worth starting: surrounded, or pressed against something over 3
