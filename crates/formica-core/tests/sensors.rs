@@ -382,3 +382,36 @@ fn no_reading_tells_a_robot_from_the_object_but_its_colour() {
     assert_eq!(r.scan_color[0], formica::scenario::Color::Green);
     assert_eq!(r.blobs[0].color, formica::scenario::Color::Green);
 }
+
+#[test]
+fn the_beacon_has_a_range_and_noise() {
+    // Occlusion robots (beacon perception) 1.0 and 2.5 m from the box's centre; range 2 m.
+    let body = format!(
+        "{}{}sensors = {{ noise = \"none\", beacon_range = 2.0, beacon_noise = 0.02 }}\n",
+        seed_box(0.0, 0.0),
+        robot_group(
+            "occlusion",
+            "approach_speed = 0.001, search_speed = 0.001",
+            &[[-1.0, 0.0, 0.0], [-2.5, 0.0, 0.0]]
+        )
+    );
+    let sc = scenario(&body);
+    let mut run = start(&sc, 1);
+    let mut xs = Vec::new();
+    for _ in 0..2000 {
+        run.world.step();
+        let near = run.world.robots[0].readings.beacon;
+        assert!(
+            run.world.robots[1].readings.beacon.is_none(),
+            "beyond range"
+        );
+        let c = run.world.object_center(0);
+        let b = near.unwrap_or_else(|| panic!("no beacon within range"));
+        xs.push(f64::from(b.x - c.x));
+    }
+    let (mean, sd) = moments(&xs);
+    assert!(
+        mean.abs() < 0.002 && (sd - 0.02).abs() < 0.002,
+        "{mean} {sd}"
+    );
+}
