@@ -37,8 +37,7 @@ fn fills_then_delivers(name: &str, seed: u64) {
 
 #[test]
 fn fill_transport_fills_and_delivers_the_u() {
-    // Seed 1 meets a wall with the realistic noise preset (15 of seeds 1-16 succeed).
-    for seed in 2..=3 {
+    for seed in 1..=2 {
         fills_then_delivers("fill-transport-u.toml", seed);
     }
 }
