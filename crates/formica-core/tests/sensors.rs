@@ -415,3 +415,22 @@ fn the_beacon_has_a_range_and_noise() {
         "{mean} {sd}"
     );
 }
+
+#[test]
+fn check_warns_about_the_oracle_camera_and_exact_sensors() {
+    let group = |sensors: &str| {
+        format!(
+            "{}sensors = {{ {sensors} }}\n",
+            robot_group("constant", "camera = true", &[[0.0, 0.0, 0.0]])
+        )
+    };
+    let warn = |sensors: &str| {
+        let run = start(&scenario(&group(sensors)), 1);
+        formica::world::sensor_warning(&run.world.groups[0])
+    };
+    let w = warn("camera = \"oracle\"").unwrap_or_default();
+    assert!(w.contains("oracle"), "{w}");
+    let w = warn("noise = \"none\"").unwrap_or_default();
+    assert!(w.contains("exact"), "{w}");
+    assert_eq!(warn("noise = \"realistic\""), None);
+}
