@@ -124,29 +124,93 @@ pub fn preset(kind: ModelKind, preset: NoisePreset) -> NoiseModel {
     }
 }
 
-/// A photodiode reading with relative spread `rel` and additive spread `floor`, clamped to
-/// [0, 1]: `v (1 + rel e1) + floor e2`. Draws nothing for a spread that is zero.
-pub fn intensity(v: f32, rel: f32, floor: f32, rng: &mut impl Rng) -> f32 {
-    let mut x = v;
-    if rel > 0.0 && v != 0.0 {
-        x += v * rel * ops::standard_normal(rng);
-    }
-    if floor > 0.0 {
-        x += floor * ops::standard_normal(rng);
-    }
-    x.clamp(0.0, 1.0)
+/// Standard normal draws for one robot's readings in one tick: the Box–Muller transform of two
+/// uniform draws gives two independent normals, and the second is kept for the next call (so
+/// noise costs half the transcendental functions). Built on the same portable functions as
+/// [`ops::standard_normal`]; the draws depend only on the generator's state, so results stay
+/// bit-identical on every platform.
+pub struct Gauss<'a, R: Rng> {
+    rng: &'a mut R,
+    spare: Option<f32>,
 }
 
-/// An angle with additive spread `sd`, wrapped to (-pi, pi].
-pub fn angle(a: f32, sd: f32, rng: &mut impl Rng) -> f32 {
-    wrap_angle(ops::gaussian(a, sd, rng))
+impl<'a, R: Rng> Gauss<'a, R> {
+    /// Draws from `rng`.
+    pub fn new(rng: &'a mut R) -> Self {
+        Self { rng, spare: None }
+    }
+
+    /// A standard normal sample.
+    pub fn normal(&mut self) -> f32 {
+        if let Some(z) = self.spare.take() {
+            return z;
+        }
+        // u1 in (0, 1], so that ln(u1) is finite.
+        let u1 = 1.0 - self.rng.random::<f32>();
+        let u2 = self.rng.random::<f32>();
+        let r = (-2.0 * ops::ln(u1)).sqrt();
+        let (s, c) = ops::sin_cos(std::f32::consts::TAU * u2);
+        self.spare = Some(r * s);
+        r * c
+    }
+
+    /// `v` plus noise of spread `sd` (nothing drawn when `sd` is not positive).
+    pub fn add(&mut self, v: f32, sd: f32) -> f32 {
+        if sd > 0.0 {
+            v + sd * self.normal()
+        } else {
+            v
+        }
+    }
+
+    /// A photodiode reading with relative spread `rel` and additive spread `floor`, clamped to
+    /// [0, 1]: `v (1 + rel e1) + floor e2`. Draws nothing for a spread that is zero, nor for the
+    /// relative part of a zero reading.
+    pub fn intensity(&mut self, v: f32, rel: f32, floor: f32) -> f32 {
+        let mut x = v;
+        if rel > 0.0 && v != 0.0 {
+            x += v * rel * self.normal();
+        }
+        if floor > 0.0 {
+            x += floor * self.normal();
+        }
+        x.clamp(0.0, 1.0)
+    }
+
+    /// An angle with additive spread `sd`, wrapped to (-pi, pi].
+    pub fn angle(&mut self, a: f32, sd: f32) -> f32 {
+        wrap_angle(self.add(a, sd))
+    }
+
+    /// A distance with relative spread `rel`, never negative.
+    pub fn distance(&mut self, d: f32, rel: f32) -> f32 {
+        if rel > 0.0 {
+            (d * (1.0 + rel * self.normal())).max(0.0)
+        } else {
+            d
+        }
+    }
 }
 
-/// A distance with relative spread `rel`, never negative.
-pub fn distance(d: f32, rel: f32, rng: &mut impl Rng) -> f32 {
-    if rel > 0.0 {
-        (d * (1.0 + rel * ops::standard_normal(rng))).max(0.0)
-    } else {
-        d
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn paired_normals_have_unit_spread_and_no_correlation() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+        let mut g = Gauss::new(&mut rng);
+        let n = 100_000;
+        let xs: Vec<f64> = (0..n).map(|_| f64::from(g.normal())).collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n as f64;
+        assert!(
+            mean.abs() < 0.01 && (var.sqrt() - 1.0).abs() < 0.01,
+            "{mean} {var}"
+        );
+        // The two halves of each pair are uncorrelated.
+        let cov = xs.chunks(2).map(|p| p[0] * p[1]).sum::<f64>() / (n / 2) as f64;
+        assert!(cov.abs() < 0.015, "covariance {cov}");
     }
 }

@@ -215,16 +215,18 @@ pub fn sense(
 ) {
     let nz = &cfg.noise;
     let center = pose.position();
+    let mut gauss = noise::Gauss::new(rng);
+    let rng = &mut gauss;
     // Positioning.
     out.pose = Pose::new(
-        ops::gaussian(pose.x, nz.position_noise, rng),
-        ops::gaussian(pose.y, nz.position_noise, rng),
-        noise::angle(pose.theta, nz.heading_noise, rng),
+        rng.add(pose.x, nz.position_noise),
+        rng.add(pose.y, nz.position_noise),
+        rng.angle(pose.theta, nz.heading_noise),
     );
     out.beacon = match ctx.beacon {
         Some(b) if needs.beacon && (b - center).length() <= cfg.beacon_range => Some(Vec2::new(
-            ops::gaussian(b.x, nz.beacon_noise, rng),
-            ops::gaussian(b.y, nz.beacon_noise, rng),
+            rng.add(b.x, nz.beacon_noise),
+            rng.add(b.y, nz.beacon_noise),
         )),
         _ => None,
     };
@@ -266,7 +268,7 @@ fn proximity(
     me: Tag,
     pose: Pose,
     scratch: &mut Scratch,
-    rng: &mut impl Rng,
+    rng: &mut noise::Gauss<'_, impl Rng>,
     out: &mut Vec<f32>,
 ) {
     let center = pose.position();
@@ -291,7 +293,7 @@ fn proximity(
     }
     let nz = &cfg.noise;
     for v in out.iter_mut() {
-        *v = noise::intensity(*v, nz.proximity_noise, nz.proximity_floor, rng);
+        *v = rng.intensity(*v, nz.proximity_noise, nz.proximity_floor);
     }
 }
 
@@ -304,7 +306,7 @@ fn light(
     me: Tag,
     pose: Pose,
     scratch: &mut Scratch,
-    rng: &mut impl Rng,
+    rng: &mut noise::Gauss<'_, impl Rng>,
     out: &mut Vec<f32>,
 ) {
     let center = pose.position();
@@ -357,7 +359,7 @@ fn light(
     let nz = &cfg.noise;
     for v in out.iter_mut() {
         let lit = (*v + nz.ambient_light).min(1.0);
-        *v = noise::intensity(lit, nz.light_noise, nz.light_floor, rng);
+        *v = rng.intensity(lit, nz.light_noise, nz.light_floor);
     }
 }
 
@@ -371,7 +373,7 @@ fn blob_camera(
     me: Tag,
     pose: Pose,
     scratch: &mut Scratch,
-    rng: &mut impl Rng,
+    rng: &mut noise::Gauss<'_, impl Rng>,
     out: &mut Vec<Blob>,
 ) {
     let center = pose.position();
@@ -424,8 +426,8 @@ fn blob_camera(
         }
         let nz = &cfg.noise;
         out.push(Blob {
-            bearing: noise::angle(ops::angle_of(to) - pose.theta, nz.camera_noise, rng),
-            distance: noise::distance(dist, nz.camera_distance_noise, rng),
+            bearing: rng.angle(ops::angle_of(to) - pose.theta, nz.camera_noise),
+            distance: rng.distance(dist, nz.camera_distance_noise),
             color,
         });
     }
@@ -442,7 +444,7 @@ fn oracle_camera(
     me: Tag,
     pose: Pose,
     scratch: &mut Scratch,
-    rng: &mut impl Rng,
+    rng: &mut noise::Gauss<'_, impl Rng>,
     out: &mut Vec<Blob>,
 ) {
     let center = pose.position();
@@ -481,8 +483,8 @@ fn oracle_camera(
         }
         let nz = &cfg.noise;
         out.push(Blob {
-            bearing: noise::angle(ops::angle_of(to) - pose.theta, nz.camera_noise, rng),
-            distance: noise::distance(dist, nz.camera_distance_noise, rng),
+            bearing: rng.angle(ops::angle_of(to) - pose.theta, nz.camera_noise),
+            distance: rng.distance(dist, nz.camera_distance_noise),
             color,
         });
     }
@@ -496,7 +498,7 @@ fn scan(
     me: Tag,
     pose: Pose,
     scratch: &mut Scratch,
-    rng: &mut impl Rng,
+    rng: &mut noise::Gauss<'_, impl Rng>,
     out: &mut Readings,
 ) {
     let center = pose.position();
@@ -557,7 +559,7 @@ fn scan(
             (Tag::Wall(_), _) => Color::Grey,
             (_, c) => c,
         };
-        let mut d = noise::distance(t, cfg.noise.scan_noise, rng);
+        let mut d = rng.distance(t, cfg.noise.scan_noise);
         if step > 0.0 {
             d = (d / step).round() * step;
         }
