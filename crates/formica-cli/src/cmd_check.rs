@@ -91,13 +91,22 @@ pub fn main(a: Args) -> Result<(), CliError> {
             outln!("    warning: {warning}");
         }
     }
+    let steps = match s.run.substeps {
+        formica::scenario::Substeps::Auto => format!(
+            "1 to {} physics steps/tick (auto: as the speeds need)",
+            sc.max_substeps()
+        ),
+        formica::scenario::Substeps::Fixed(n) => format!("{n} physics steps/tick"),
+    };
     outln!(
-        "  run: {} ticks/s, {} physics steps/tick, {} s, seed {}",
+        "  run: {} ticks/s, {steps}, {} s, seed {}",
         s.run.tick_hz,
-        s.run.substeps,
         s.run.duration_s,
         s.run.seed
     );
+    if let Some(w) = sc.physics_warning() {
+        outln!("    warning: {w}");
+    }
     if let Some(r) = run.goal_radius() {
         outln!(
             "  stop: success within {r:.3} m of the goal; wall: {}",

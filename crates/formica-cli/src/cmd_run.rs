@@ -38,6 +38,9 @@ pub struct Args {
     /// Worker threads for `--seeds` (default: all cores). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Run even if the physics step is too coarse for contacts to hold (see `formica check`).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Parses a seed range `A..B` (inclusive; `A..=B` also accepted).
@@ -117,6 +120,12 @@ fn describe(r: &RunResult) -> String {
 pub fn main(a: Args) -> Result<(), CliError> {
     let sc = load(&a.scenario, &a.set)?;
     crate::check_controller(a.controller.as_deref())?;
+    if let (Some(w), false) = (sc.physics_warning(), a.force) {
+        return Err(CliError::Input(format!(
+            "{}: {w}; --force runs it anyway",
+            sc.file
+        )));
+    }
     if let Some(d) = a.duration {
         if !(d > 0.0 && d.is_finite()) {
             return Err(CliError::Input(format!(

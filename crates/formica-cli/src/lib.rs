@@ -146,6 +146,58 @@ where
             return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
         }
     };
+    match dispatch(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.code)
+        }
+    }
+}
+
+/// A subcommand that failed: what [`main_from`] would print after `error: `, and its exit code.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CommandError {
+    /// 2 for bad input (a scenario error names `file:line:column`) or bad arguments (also: 0
+    /// for `--help` and `--version`, whose text is the message), 1 for other failures.
+    pub code: u8,
+    /// What went wrong.
+    pub message: String,
+}
+
+impl std::fmt::Display for CommandError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for CommandError {}
+
+/// [`main_from`] for programs that report failures themselves (the Python package's
+/// `formica.sweep`): the same subcommands, with the error returned instead of printed.
+///
+/// ```
+/// use formica::Registry;
+///
+/// let err = formica_cli::try_main_from(Registry::builtin(), ["formica", "check", "missing.toml"])
+///     .unwrap_err();
+/// assert_eq!(err.code, 2);
+/// assert!(err.message.starts_with("missing.toml: cannot read"), "{err}");
+/// ```
+pub fn try_main_from<I, T>(registry: Registry, args: I) -> Result<(), CommandError>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    registry.install();
+    let cli = Cli::try_parse_from(args).map_err(|e| CommandError {
+        code: u8::try_from(e.exit_code()).unwrap_or(2),
+        message: e.render().to_string(),
+    })?;
+    dispatch(cli)
+}
+
+fn dispatch(cli: Cli) -> Result<(), CommandError> {
     let r = match cli.command {
         Command::Run(a) => cmd_run::main(a),
         Command::Check(a) => cmd_check::main(a),
@@ -158,15 +210,11 @@ where
         Command::Serve(a) => cmd_serve::main(a),
         Command::Record(a) => cmd_record::main(a),
     };
-    match r {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(CliError::Input(m)) => {
-            eprintln!("error: {m}");
-            ExitCode::from(2)
-        }
-        Err(CliError::Other(e)) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(1)
-        }
-    }
+    r.map_err(|e| match e {
+        CliError::Input(message) => CommandError { code: 2, message },
+        CliError::Other(e) => CommandError {
+            code: 1,
+            message: format!("{e:#}"),
+        },
+    })
 }

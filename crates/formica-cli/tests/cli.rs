@@ -284,3 +284,40 @@ fn check_warns_when_occlusion_cannot_reach_round_the_object() {
     let enough = check("object_reach = 0.85");
     assert!(!enough.contains("warning"), "{enough}");
 }
+
+#[test]
+fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
+    // One physics step per tick lets a Khepera IV at 0.8 m/s move 8 cm per step, more than a
+    // third of its radius: check warns, run refuses, --force runs.
+    let text = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
+    let f = tmp("coarse").join("coarse.toml");
+    std::fs::write(&f, text.replace("[run]\n", "[run]\nsubsteps = 1\n")).unwrap();
+    let out = formica().arg("check").arg(&f).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("warning: at 10 ticks/s and 1 physics step(s)"),
+        "{stdout}"
+    );
+    let out = formica()
+        .arg("run")
+        .arg(&f)
+        .args(["--duration", "1"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("--force"),
+        "{stderr}"
+    );
+    let out = formica()
+        .arg("run")
+        .arg(&f)
+        .args(["--duration", "1", "--force"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

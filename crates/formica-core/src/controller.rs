@@ -65,7 +65,11 @@ pub struct ControllerFactory {
     /// Which sensors the controllers read.
     pub needs: SensorNeeds,
     make: Box<dyn Fn() -> Box<dyn Controller> + Send + Sync>,
+    batch: Option<Box<MakeBatch>>,
 }
+
+/// Makes the [`BatchController`] of one robot group in one world.
+type MakeBatch = dyn Fn() -> Box<dyn BatchController> + Send + Sync;
 
 impl ControllerFactory {
     /// A factory from a constructor closure.
@@ -76,11 +80,96 @@ impl ControllerFactory {
         Self {
             needs,
             make: Box::new(make),
+            batch: None,
         }
     }
-    /// A fresh controller.
+
+    /// A factory of batch controllers: each world gets one from `make` per robot group, which
+    /// decides for all the group's robots at once (see [`BatchController`]).
+    ///
+    /// ```
+    /// use formica::controller::{Actuation, BatchController, BatchRobot, ControllerFactory};
+    /// use formica::sensors::{SensorLayout, SensorNeeds};
+    ///
+    /// /// Every robot drives forward at 0.05 m/s plus 0.01 m/s per robot in the group.
+    /// struct Crowd;
+    /// impl BatchController for Crowd {
+    ///     fn step(&mut self, robots: &mut [BatchRobot<'_>]) {
+    ///         let v = 0.05 + 0.01 * robots.len() as f32;
+    ///         for r in robots.iter_mut() {
+    ///             r.action = Actuation { left: v, right: v, ..Actuation::default() };
+    ///             r.state = "crowd";
+    ///         }
+    ///     }
+    /// }
+    ///
+    /// let mut registry = formica::Registry::builtin();
+    /// registry.controller("crowd", |_params: Option<&toml::Table>, _layout: &SensorLayout| {
+    ///     Ok(ControllerFactory::batched(SensorNeeds::default(), || Box::new(Crowd)))
+    /// })?;
+    /// let text = "[arena]\nsize = [2.0, 2.0]\n[[robots]]\ncontroller = \"crowd\"\n\
+    ///             placement = { poses = [[0.0, 0.5, 0.0], [0.0, -0.5, 0.0]] }\n";
+    /// let scenario = registry.parse(text, "crowd.toml")?;
+    /// let mut world = formica::World::new(&scenario, &Default::default())?;
+    /// world.step();
+    /// assert_eq!(world.robots[1].action.left, 0.07);
+    /// assert_eq!(world.robots[1].state, "crowd");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn batched(
+        needs: SensorNeeds,
+        make: impl Fn() -> Box<dyn BatchController> + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            needs,
+            make: Box::new(|| Box::new(Batched)),
+            batch: Some(Box::new(make)),
+        }
+    }
+
+    /// A fresh controller (for a batch factory: a stand-in that is never stepped).
     pub fn make(&self) -> Box<dyn Controller> {
         (self.make)()
+    }
+
+    /// A fresh batch controller, if this is a batch factory ([`ControllerFactory::batched`]).
+    pub fn make_batch(&self) -> Option<Box<dyn BatchController>> {
+        self.batch.as_ref().map(|make| make())
+    }
+}
+
+/// One released robot of a group, as its [`BatchController`] sees it.
+pub struct BatchRobot<'a> {
+    /// The robot's index in the world (`World::robots`).
+    pub index: usize,
+    /// This tick's readings.
+    pub readings: &'a Readings,
+    /// The robot's own random generator.
+    pub rng: &'a mut RobotRng,
+    /// In: what it asked for last tick; out: what it asks for next.
+    pub action: Actuation,
+    /// In: its state name so far; out: its new one.
+    pub state: &'static str,
+}
+
+/// Decides for all released robots of one group at once, e.g. a neural network over the batch
+/// or a function in another language called once per tick. It still sees only the robots'
+/// readings, and draws randomness only from their generators. Registered like any controller,
+/// through [`ControllerFactory::batched`].
+pub trait BatchController: Send {
+    /// Decides this tick's actions of `robots` (the group's released robots, in world order).
+    fn step(&mut self, robots: &mut [BatchRobot<'_>]);
+}
+
+/// The per-robot stand-in of a batch-controlled robot (the group's batch controller decides).
+struct Batched;
+
+impl Controller for Batched {
+    fn step(&mut self, _readings: &Readings, _rng: &mut RobotRng) -> Actuation {
+        Actuation::default()
+    }
+    fn state(&self) -> &'static str {
+        "batched"
     }
 }
 
@@ -93,6 +182,17 @@ impl ControllerFactory {
 pub struct FlatReadings {
     proximity: usize,
     light: usize,
+}
+
+/// A named run of slots in a [`FlatReadings`] vector.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Slot {
+    /// Name: `proximity`, `light`, or one of [`FlatReadings::TAIL`].
+    pub name: &'static str,
+    /// Index of its first value in the vector.
+    pub offset: usize,
+    /// Number of values.
+    pub len: usize,
 }
 
 impl FlatReadings {
@@ -116,6 +216,24 @@ impl FlatReadings {
         }
     }
 
+    /// The vector's layout, in order: `proximity` (P values), `light` (L values), then one
+    /// slot of one value per name in [`FlatReadings::TAIL`]. Readers that go by these names
+    /// and offsets keep working when sensors are added.
+    pub fn slots(&self) -> Vec<Slot> {
+        let groups = [("proximity", self.proximity), ("light", self.light)];
+        let sizes = groups
+            .into_iter()
+            .chain(Self::TAIL.iter().map(|&name| (name, 1)));
+        let mut offset = 0;
+        sizes
+            .map(|(name, len)| {
+                let slot = Slot { name, offset, len };
+                offset += len;
+                slot
+            })
+            .collect()
+    }
+
     /// Length of the vector.
     pub fn len(&self) -> usize {
         self.proximity + self.light + Self::TAIL.len()
@@ -126,13 +244,18 @@ impl FlatReadings {
         false
     }
 
-    /// Slot names: `proximity0`, ..., `light0`, ..., then [`FlatReadings::TAIL`].
+    /// Slot names: `proximity0`, ..., `light0`, ..., then [`FlatReadings::TAIL`] (a slot
+    /// of one value keeps its name, longer ones get an index per value).
     pub fn names(&self) -> Vec<String> {
-        (0..self.proximity)
-            .map(|i| format!("proximity{i}"))
-            .chain((0..self.light).map(|i| format!("light{i}")))
-            .chain(Self::TAIL.iter().map(|s| s.to_string()))
-            .collect()
+        let mut names = Vec::new();
+        for s in self.slots() {
+            if s.len == 1 && Self::TAIL.contains(&s.name) {
+                names.push(s.name.to_string());
+            } else {
+                names.extend((0..s.len).map(|i| format!("{}{i}", s.name)));
+            }
+        }
+        names
     }
 
     /// Writes `r` into `out`, whose length must be [`FlatReadings::len`] (else an error and
@@ -215,6 +338,29 @@ mod tests {
             ("proximity0", "light0")
         );
         assert_eq!(names[16..], FlatReadings::TAIL);
+        let slots = flat.slots();
+        assert_eq!(
+            (slots[0], slots[1], slots[2]),
+            (
+                Slot {
+                    name: "proximity",
+                    offset: 0,
+                    len: 8
+                },
+                Slot {
+                    name: "light",
+                    offset: 8,
+                    len: 8
+                },
+                Slot {
+                    name: "x",
+                    offset: 16,
+                    len: 1
+                },
+            )
+        );
+        let last = slots[slots.len() - 1];
+        assert_eq!(last.offset + last.len, flat.len());
         let r = Readings {
             time_s: 2.5,
             proximity: vec![0.5; 8],

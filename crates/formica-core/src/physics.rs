@@ -1,13 +1,55 @@
 //! Rigid-body physics: the only module that talks to rapier2d.
 //!
-//! Top-down 2D, no gravity. Robots are driven toward their commanded wheel speeds by
-//! force-capped impulses (as ARGoS drags them with force-capped joints). Movable objects rub
-//! on the floor through a joint to a static ground body whose motors hold them still with at
-//! most `mu * m * g` of force (Coulomb friction), so that one robot cannot move what a team can.
+//! Top-down 2D, no gravity. Two kinds of floor contact are modelled, both as a joint to a static
+//! ground body whose velocity motors rapier solves together with the contacts, so that friction
+//! holds a body still against whatever pushes it (stiction) instead of being added afterwards:
+//!
+//! - **Floor friction** of movable objects: Coulomb friction under uniform pressure over the
+//!   object's actual footprint, sampled at about a hundred points when it is created (see
+//!   `physics/friction.rs`). This is the exact limit surface of the footprint, not the ellipsoid of
+//!   quasi-static pushing (Goyal, Ruina & Papadopoulos 1991; Lynch & Mason 1996), which has the
+//!   right `f_max = mu m g` and `tau_max = mu m g mean|r - c|` but the wrong curvature near pure
+//!   translation: with it a 0.5 m box pushed 5 cm off centre turned 35 % too slowly. A sliding
+//!   object is resisted with `mu m g` opposite its velocity when it only translates, and with
+//!   less force and a torque as it turns.
+//! - **Traction** of a robot's wheels: the body is pulled toward the commanded velocity (forward,
+//!   no sideways slip, turn rate) with at most the model's drive force in any direction (one
+//!   friction circle shared by forward and sideways) and at most its drive torque.
+//!
+//! rapier caps each motor axis on its own, which alone gives a box-shaped limit. So before every
+//! step each joint is set from one implicit Coulomb step against the true limit set: from the
+//! wrench everything else applied to the body in the last step (its change of momentum minus the
+//! joint's impulse), predict its twist at the end of this step without the joint. If the wrench
+//! that brings it to its target (rest, or the commanded velocity) lies inside the limit set, the
+//! body sticks: the caps are a box around that wrench reaching the limit set along each axis, so
+//! the solver holds it. Otherwise it slips with the maximally dissipative wrench (for objects the
+//! minimiser of a convex problem in the three twist components, solved by Newton's method; for
+//! wheels the drive force along the slip): the joint frame is turned to the slip and the caps
+//! set to the wrench's components. The approximation is the one-step lag of the other bodies'
+//! wrench: a steady push is resolved exactly, a changing one a step late, and a quasi-static push
+//! against stiff friction (friction that would stop the object in far less than a step) turns it
+//! too slowly by an amount that grows with the step (a few per cent at 25 ms, 15-30 % at
+//! 100 ms). The motors only ever resist motion, so friction never accelerates a body.
+//!
+//! Robots touching nothing skip the joint: they get the same capped velocity change directly,
+//! which is what the joint would do without contacts and costs far less. Robots attached to an
+//! object keep their wheels on the floor through the joint (locked wheels): commanding zero wheel
+//! speed, they brake with up to their drive force in any direction and the torque of that force
+//! at the wheels ([`RobotModel::brake_torque`]), which is part of the pseudo object's resistance.
+//!
+//! Contacts: rapier's contact recycling (which keeps contact points for up to 5 cm of motion and
+//! made robots snag on corners they passed 1 cm away) is off; "touching" means a contact within
+//! [`TOUCH`], since rapier also makes contacts for bodies that are still apart (how far ahead is
+//! [`Physics::set_contact_prediction`]). With the world's automatic sub-steps no body moves more
+//! than a third of the smallest robot radius per step, so robots do not pass through each other;
+//! rapier's continuous collision detection keeps fast bodies out of walls.
+
+mod friction;
 
 use crate::geometry::{Pose, Vec2};
-use crate::ops;
 use crate::robot::RobotModel;
+use friction::{hold_box, Footprint, Twist};
+use rapier2d::math::Rotation;
 use rapier2d::prelude::*;
 
 /// Standard gravity, for floor friction (m/s^2).
@@ -19,9 +61,15 @@ pub const OBJECT_FRICTION: f32 = 0.7;
 /// Contact friction of walls.
 pub const WALL_FRICTION: f32 = 0.1;
 
-/// Damping of the floor-friction velocity motors: large, so that below the force cap the
-/// object is held still (a stiff velocity constraint), and above it slides.
-const MOTOR_DAMPING: f32 = 1.0e6;
+/// Damping of the floor velocity motors: large, so that below the caps the body reaches the
+/// motor's target within the step (a stiff velocity constraint), and above them slips.
+const MOTOR_DAMPING: f32 = 1.0e9;
+
+/// Two surfaces closer than this touch (m): rapier's contacts also cover bodies still apart.
+pub const TOUCH: f32 = 0.001;
+
+/// Solver sub-steps rapier runs inside each physics step by default.
+const DEFAULT_SOLVER_ITERATIONS: usize = 4;
 
 /// What a collider belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -57,7 +105,8 @@ impl Tag {
 pub struct BodyId {
     body: RigidBodyHandle,
     collider: ColliderHandle,
-    drive: Option<ImpulseJointHandle>,
+    /// Index into [`Physics::drives`] (robots only).
+    drive: Option<u32>,
 }
 
 /// A collider near a query point, for cheap local ray casts.
@@ -72,18 +121,47 @@ pub struct Nearby {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct AttachId(ImpulseJointHandle);
 
+/// A joint to the ground standing for a body's contact with the floor, and what the next step
+/// needs to know of the last one.
+#[derive(Debug, Clone, Copy)]
+struct FloorJoint {
+    body: RigidBodyHandle,
+    joint: ImpulseJointHandle,
+    mass: f32,
+    inertia: f32,
+    /// The body's twist when the last step started (after any direct velocity change).
+    pre: Twist,
+    /// Unit x axis of the joint frame during the last step (world frame).
+    axis: Vec2,
+    /// Whether the joint was enabled during the last step.
+    active: bool,
+}
+
+/// Floor friction of one movable object.
+#[derive(Debug, Clone)]
+struct Friction {
+    joint: FloorJoint,
+    footprint: Footprint,
+    /// Twist at the end of the last step, as the friction step predicted it.
+    end: Twist,
+}
+
 /// The physics world.
 pub struct Physics {
     world: PhysicsWorld,
     ground: RigidBodyHandle,
-    /// Floor-friction joints of movable objects: (object body, joint).
-    friction_joints: Vec<(RigidBodyHandle, ImpulseJointHandle)>,
+    /// Floor friction of movable objects.
+    friction: Vec<Friction>,
+    /// Wheel joints of robots, indexed by [`BodyId::drive`].
+    drives: Vec<FloorJoint>,
     /// Every wall and object collider: the few bodies that can hide a light far away.
     fixtures: Vec<Nearby>,
     /// Robot colliders, in insertion order, with their radii.
     robots: Vec<(Nearby, f32)>,
     /// Neighbour index for sensor queries, rebuilt once per tick.
     index: NeighbourIndex,
+    /// Length of the last step and rapier's solver sub-steps in it, to read its impulses.
+    last_step: (f32, usize),
 }
 
 /// A uniform grid of robot positions plus the bounding boxes of walls and objects: answers
@@ -106,21 +184,116 @@ struct NeighbourIndex {
 /// Side of a neighbour-index cell (m): about a Khepera's proximity reach.
 const CELL_M: f32 = 0.3;
 
+/// How one axis of a floor joint acts during a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Motor {
+    /// Target velocity along the axis.
+    target: f32,
+    /// Damping (force per unit of velocity error) for a linearised friction, or `None` for a
+    /// stiff motor that reaches the target if it can.
+    damping: Option<f32>,
+    /// Largest force (torque) it applies.
+    cap: f32,
+}
+
+impl Motor {
+    /// A stiff motor: reaches `target` with at most `cap`.
+    fn hold(target: f32, cap: f32) -> Motor {
+        Motor {
+            target,
+            damping: None,
+            cap,
+        }
+    }
+
+    fn apply(self, joint: &mut GenericJoint, axis: JointAxis) {
+        match self.damping {
+            Some(d) => joint
+                .set_motor_model(axis, MotorModel::ForceBased)
+                .set_motor_velocity(axis, self.target, d),
+            None => joint
+                .set_motor_model(axis, MotorModel::AccelerationBased)
+                .set_motor_velocity(axis, self.target, MOTOR_DAMPING),
+        }
+        .set_motor_max_force(axis, self.cap);
+    }
+}
+
+/// The vector `v` turned by +90 degrees.
+fn perp(v: Vec2) -> Vec2 {
+    Vec2::new(-v.y, v.x)
+}
+
+/// `v / |v|`, or `fallback` when `v` is (nearly) zero.
+fn direction_or(v: Vec2, fallback: Vec2) -> Vec2 {
+    let l = v.length();
+    if l > 1e-12 {
+        v / l
+    } else {
+        fallback
+    }
+}
+
+/// A joint frame at `origin` whose x axis is the unit vector `axis`.
+fn frame(origin: Vec2, axis: Vec2) -> rapier2d::math::Pose {
+    rapier2d::math::Pose::from_parts(origin, Rotation::from_cos_sin_unchecked(axis.x, axis.y))
+}
+
 impl Physics {
     /// An empty world stepping `dt` seconds per call to [`Physics::step`].
     pub fn new(dt: f32) -> Self {
         let mut world = PhysicsWorld::new();
         world.gravity = Vec2::ZERO;
         world.integration_parameters.dt = dt;
+        world.integration_parameters.num_solver_iterations = DEFAULT_SOLVER_ITERATIONS;
+        // Recycled contact pairs keep stale contact points for up to 5 cm of relative motion:
+        // a robot passing a corner would be pushed off (or stopped) by a contact that is no
+        // longer there (issue 10's ghost contacts). Recompute contacts every step.
+        world.integration_parameters.contact_recycling = false;
         let ground = world.bodies.insert(RigidBodyBuilder::fixed());
         Self {
             world,
             ground,
-            friction_joints: Vec::new(),
+            friction: Vec::new(),
+            drives: Vec::new(),
             fixtures: Vec::new(),
             robots: Vec::new(),
             index: NeighbourIndex::default(),
+            last_step: (dt, DEFAULT_SOLVER_ITERATIONS),
         }
+    }
+
+    /// Sets how many solver sub-steps rapier runs inside each physics step (default 4). With
+    /// several physics steps per tick, fewer are needed for the same solver work per tick.
+    pub fn set_solver_iterations(&mut self, n: usize) {
+        self.world.integration_parameters.num_solver_iterations = n.max(1);
+    }
+
+    /// Sets the length of the following steps (s).
+    pub fn set_dt(&mut self, dt: f32) {
+        self.world.integration_parameters.dt = dt;
+    }
+
+    /// The fastest any body's outline moves now (m/s): a robot's centre (a disc turning about
+    /// its centre sweeps nothing), an object's centre plus its turning at its farthest point.
+    pub fn fastest_speed(&self) -> f32 {
+        let rim = |fj: &FloorJoint, reach: f32| {
+            let b = &self.world.bodies[fj.body];
+            b.linvel().length() + b.angvel().abs() * reach
+        };
+        let robots = self.drives.iter().map(|fj| rim(fj, 0.0));
+        let objects = self
+            .friction
+            .iter()
+            .map(|f| rim(&f.joint, f.footprint.reach()));
+        robots.chain(objects).fold(0.0, f32::max)
+    }
+
+    /// Sets how far apart two colliders get a (speculative) contact, which must exceed how much
+    /// closer two bodies can come in one step for contacts to hold at speed (default 2 cm).
+    pub fn set_contact_prediction(&mut self, distance: f32) {
+        let p = &mut self.world.integration_parameters;
+        p.normalized_prediction_distance = distance.max(0.02) / p.length_unit;
     }
 
     /// Seconds per step.
@@ -161,8 +334,8 @@ impl Physics {
         }
     }
 
-    /// Adds an object. Movable objects get floor friction `floor_mu * mass * g`; the torque cap
-    /// assumes uniform pressure over a disc of the same area (2/3 mu m g r).
+    /// Adds an object. Movable objects rub on the floor with Coulomb friction `floor_mu * m * g`
+    /// and the ellipsoidal limit surface of their footprint (see the module documentation).
     pub fn add_object(
         &mut self,
         shape: SharedShape,
@@ -183,7 +356,7 @@ impl Physics {
                 .can_sleep(false),
         );
         let collider = self.world.colliders.insert_with_parent(
-            ColliderBuilder::new(shape)
+            ColliderBuilder::new(shape.clone())
                 .density(mass / area)
                 .friction(OBJECT_FRICTION)
                 .friction_combine_rule(CoefficientCombineRule::Multiply)
@@ -196,10 +369,19 @@ impl Physics {
             tag: Tag::Object(index),
             collider,
         });
-        let force = floor_mu * mass * GRAVITY;
-        let r_eff = (area / std::f32::consts::PI).sqrt();
-        let torque = force * r_eff * 2.0 / 3.0;
-        let com = self.world.bodies[body].local_center_of_mass();
+        let b = &self.world.bodies[body];
+        let com = b.local_center_of_mass();
+        let (m, inertia) = (
+            b.mass(),
+            b.mass_properties().local_mprops.principal_inertia(),
+        );
+        let aabb = shape.compute_local_aabb();
+        let footprint = Footprint::sample(
+            |p| shape.contains_local_point(p),
+            aabb.mins,
+            aabb.maxs,
+            floor_mu * mass * GRAVITY,
+        );
         let joint = GenericJointBuilder::new(JointAxesMask::empty())
             .local_anchor1(Vec2::ZERO)
             .local_anchor2(com)
@@ -207,15 +389,27 @@ impl Physics {
             .motor_velocity(JointAxis::LinX, 0.0, MOTOR_DAMPING)
             .motor_velocity(JointAxis::LinY, 0.0, MOTOR_DAMPING)
             .motor_velocity(JointAxis::AngX, 0.0, MOTOR_DAMPING)
-            .motor_max_force(JointAxis::LinX, force)
-            .motor_max_force(JointAxis::LinY, force)
-            .motor_max_force(JointAxis::AngX, torque)
+            .motor_max_force(JointAxis::LinX, 0.0)
+            .motor_max_force(JointAxis::LinY, 0.0)
+            .motor_max_force(JointAxis::AngX, 0.0)
             .build();
-        let jh = self
+        let joint = self
             .world
             .impulse_joints
             .insert(self.ground, body, joint, true);
-        self.friction_joints.push((body, jh));
+        self.friction.push(Friction {
+            joint: FloorJoint {
+                body,
+                joint,
+                mass: m,
+                inertia,
+                pre: Twist::default(),
+                axis: Vec2::X,
+                active: true,
+            },
+            footprint,
+            end: Twist::default(),
+        });
         BodyId {
             body,
             collider,
@@ -223,9 +417,8 @@ impl Physics {
         }
     }
 
-    /// Adds a robot of the given model. Its wheels are a joint to the ground whose velocity
-    /// motors (forward, sideways and turning, in the robot's frame) are solved together with
-    /// the contacts and capped at the model's drive force and torque, as ARGoS does.
+    /// Adds a robot of the given model. Its wheels are a joint to the ground (see
+    /// [`Physics::drive`]).
     pub fn add_robot(&mut self, model: &RobotModel, pose: Pose, index: usize) -> BodyId {
         let body = self.world.bodies.insert(
             RigidBodyBuilder::dynamic()
@@ -243,20 +436,36 @@ impl Physics {
             body,
             &mut self.world.bodies,
         );
+        let heading = self.world.bodies[body].rotation();
+        let axis = Vec2::new(heading.cos(), heading.sin());
         let joint = GenericJointBuilder::new(JointAxesMask::empty())
-            .local_frame1(rapier2d::math::Pose::new(pose.position(), pose.theta))
+            .local_frame1(frame(pose.position(), axis))
             .contacts_enabled(false)
             .motor_velocity(JointAxis::LinX, 0.0, MOTOR_DAMPING)
             .motor_velocity(JointAxis::LinY, 0.0, MOTOR_DAMPING)
             .motor_velocity(JointAxis::AngX, 0.0, MOTOR_DAMPING)
-            .motor_max_force(JointAxis::LinX, model.max_force)
-            .motor_max_force(JointAxis::LinY, model.max_force)
-            .motor_max_force(JointAxis::AngX, model.max_torque)
+            .motor_max_force(JointAxis::LinX, 0.0)
+            .motor_max_force(JointAxis::LinY, 0.0)
+            .motor_max_force(JointAxis::AngX, 0.0)
             .build();
-        let drive = self
+        let joint = self
             .world
             .impulse_joints
             .insert(self.ground, body, joint, true);
+        if let Some(j) = self.world.impulse_joints.get_mut(joint, false) {
+            j.data.set_enabled(false);
+        }
+        let b = &self.world.bodies[body];
+        let drive = self.drives.len() as u32;
+        self.drives.push(FloorJoint {
+            body,
+            joint,
+            mass: b.mass(),
+            inertia: b.mass_properties().local_mprops.principal_inertia(),
+            pre: Twist::default(),
+            axis,
+            active: false,
+        });
         self.robots.push((
             Nearby {
                 tag: Tag::Robot(index),
@@ -268,6 +477,36 @@ impl Physics {
             body,
             collider,
             drive: Some(drive),
+        }
+    }
+
+    /// Adds an ideal pusher for validation: a frictionless kinematic disc of `radius` at
+    /// `center`, moving at the constant `velocity` whatever it meets (tagged as wall `index`).
+    pub fn add_pusher(
+        &mut self,
+        center: Vec2,
+        radius: f32,
+        velocity: Vec2,
+        index: usize,
+    ) -> BodyId {
+        let body = self.world.bodies.insert(
+            RigidBodyBuilder::kinematic_velocity_based()
+                .translation(center)
+                .linvel(velocity),
+        );
+        let collider = self.world.colliders.insert_with_parent(
+            ColliderBuilder::ball(radius)
+                .friction(0.0)
+                .friction_combine_rule(CoefficientCombineRule::Multiply)
+                .restitution(0.0)
+                .user_data(Tag::Wall(index).encode()),
+            body,
+            &mut self.world.bodies,
+        );
+        BodyId {
+            body,
+            collider,
+            drive: None,
         }
     }
 
@@ -283,82 +522,266 @@ impl Physics {
         self.world.bodies[id.body].center_of_mass()
     }
 
-    /// Linear velocity of a body (m/s).
+    /// Linear velocity of a body's centre of mass (m/s).
     pub fn velocity(&self, id: BodyId) -> Vec2 {
         self.world.bodies[id.body].linvel()
     }
 
+    /// Angular velocity of a body (rad/s, counter-clockwise positive).
+    pub fn angular_velocity(&self, id: BodyId) -> f32 {
+        self.world.bodies[id.body].angvel()
+    }
+
+    /// Sets a body's velocity (linear at its centre of mass, angular), e.g. to launch a test.
+    /// The change counts as given, not as a force from the last step.
+    pub fn set_velocity(&mut self, id: BodyId, linear: Vec2, angular: f32) {
+        let b = &mut self.world.bodies[id.body];
+        b.set_linvel(linear, true);
+        b.set_angvel(angular, true);
+        let now = Twist {
+            lin: linear,
+            ang: angular,
+        };
+        let joints = self
+            .friction
+            .iter_mut()
+            .map(|f| &mut f.joint)
+            .chain(self.drives.iter_mut());
+        for fj in joints.filter(|fj| fj.body == id.body) {
+            fj.pre = now;
+            fj.active = false;
+        }
+        for f in self.friction.iter_mut().filter(|f| f.joint.body == id.body) {
+            f.end = now;
+        }
+    }
+
+    /// The floor-friction limits of a movable object: largest force and largest torque about
+    /// its centre of mass (N, N m).
+    pub fn floor_limits(&self, id: BodyId) -> Option<(f32, f32)> {
+        self.friction
+            .iter()
+            .find(|f| f.joint.body == id.body)
+            .map(|f| (f.footprint.f_max, f.footprint.tau_max))
+    }
+
+    /// The wrench (force, torque about the centre of mass) that everything but `fj` applied to
+    /// its body during the last step: its change of momentum minus the joint's impulse.
+    fn applied_wrench(&self, fj: &FloorJoint) -> (Vec2, f32) {
+        let (h, n) = self.last_step;
+        let b = &self.world.bodies[fj.body];
+        let mut lin = (b.linvel() - fj.pre.lin) * fj.mass;
+        let mut ang = (b.angvel() - fj.pre.ang) * fj.inertia;
+        if fj.active {
+            if let Some(j) = self.world.impulse_joints.get(fj.joint) {
+                // rapier reports the impulse of its last solver sub-step, applied to the first
+                // body (the ground); the body got the opposite, over every sub-step.
+                let n = n as f32;
+                let m = &j.data.motors;
+                let imp = fj.axis * m[0].impulse + perp(fj.axis) * m[1].impulse;
+                lin += imp * n;
+                ang += m[2].impulse * n;
+            }
+        }
+        (lin / h, ang / h)
+    }
+
     /// Sets a robot's wheel speeds `left`, `right` (m/s), clamped to the model's maximum, for
-    /// the next step: the body is pulled toward the differential-drive velocity (forward,
-    /// no sideways slip, turn rate) with at most the model's drive force and torque. With
-    /// `free` the wheels exert no force (an attached robot).
+    /// the next step: the body is pulled toward the differential-drive velocity (forward, no
+    /// sideways slip, turn rate) with at most the model's drive force, in any direction, and its
+    /// drive torque. An `attached` robot keeps its wheels on the floor: commanding zero, it
+    /// brakes, with up to its drive force and [`RobotModel::brake_torque`].
     ///
-    /// A robot touching something is driven by the joint's velocity motors, solved together
-    /// with the contacts, so it pushes with exactly its drive force. A robot touching nothing
-    /// gets the same capped velocity change directly, which is what the motors would do
-    /// without contacts and costs far less than solving a joint.
-    pub fn drive(&mut self, id: BodyId, model: &RobotModel, left: f32, right: f32, free: bool) {
-        let Some(jh) = id.drive else { return };
+    /// A robot touching something (or attached) is driven by its joint, solved with the
+    /// contacts, so it pushes and resists with exactly its traction. A robot touching nothing
+    /// gets the same capped velocity change directly, at a fraction of the cost.
+    pub fn drive(&mut self, id: BodyId, model: &RobotModel, left: f32, right: f32, attached: bool) {
+        let Some(k) = id.drive else { return };
+        let fj = self.drives[k as usize];
         let l = left.clamp(-model.max_speed, model.max_speed);
         let r = right.clamp(-model.max_speed, model.max_speed);
         let (v, w) = ((l + r) / 2.0, (r - l) / model.wheel_distance);
-        let touching = !free && self.in_contact(id.collider);
-        let dt = self.dt();
-        let b = &mut self.world.bodies[id.body];
-        let heading = b.rotation().angle();
-        let frame = rapier2d::math::Pose::new(b.translation(), heading);
-        if !free && !touching {
-            let target = ops::unit(heading) * v;
-            let mut dv = target - b.linvel();
-            let cap = model.max_force / model.mass * dt;
+        let h = self.dt();
+        // Touching: a contact this step can close (the robot and what it meets both moving).
+        let speed = self.world.bodies[id.body].linvel().length().max(v.abs());
+        let touching = attached || self.in_contact(id.collider, 2.0 * speed * h + TOUCH);
+        // Read without `IndexMut`, which marks the body as changed by the user (rapier then
+        // re-processes it): most robots cruise at their target and need no change.
+        let b = &self.world.bodies[id.body];
+        let rot = b.rotation();
+        let heading = Vec2::new(rot.cos(), rot.sin());
+        let target = Twist {
+            lin: heading * v,
+            ang: w,
+        };
+        let now = Twist {
+            lin: b.linvel(),
+            ang: b.angvel(),
+        };
+        let (f_cap, t_cap) = if attached {
+            (model.max_force, model.brake_torque())
+        } else {
+            (model.max_force, model.max_torque)
+        };
+        if !touching {
+            // The joint's effect without contacts: a velocity change capped by the traction
+            // circle and the torque.
+            let mut dv = target.lin - now.lin;
+            let cap = f_cap / fj.mass * h;
             if dv.length() > cap {
                 dv *= cap / dv.length();
             }
-            let inertia = 0.5 * model.mass * model.radius * model.radius;
-            let wcap = model.max_torque / inertia * dt;
-            let dw = (w - b.angvel()).clamp(-wcap, wcap);
-            let (lin, ang) = (b.linvel() + dv, b.angvel() + dw);
-            b.set_linvel(lin, true);
-            b.set_angvel(ang, true);
-        }
-        let Some(j) = self.world.impulse_joints.get_mut(jh, false) else {
+            let wcap = t_cap / fj.inertia * h;
+            let dw = (target.ang - now.ang).clamp(-wcap, wcap);
+            let after = Twist {
+                lin: now.lin + dv,
+                ang: now.ang + dw,
+            };
+            if after != now {
+                let b = &mut self.world.bodies[id.body];
+                b.set_linvel(after.lin, false);
+                b.set_angvel(after.ang, false);
+            }
+            self.drives[k as usize] = FloorJoint {
+                pre: after,
+                active: false,
+                ..fj
+            };
+            if fj.active {
+                if let Some(j) = self.world.impulse_joints.get_mut(fj.joint, false) {
+                    j.data.set_enabled(false);
+                }
+            }
             return;
+        }
+        // Traction circle: the force that would reach the target within the step, given what
+        // the rest of the world did to the robot in the last step.
+        let (wf, _) = self.applied_wrench(&fj);
+        let free = now.lin + wf * (h / fj.mass);
+        let need = (target.lin - free) * (fj.mass / h);
+        let axis = direction_or(need, fj.axis);
+        let u = need.length() / f_cap;
+        let caps = if u <= 1.0 {
+            hold_box([u, 0.0]).map(|c| c * f_cap)
+        } else {
+            [f_cap, 0.0]
         };
-        if touching {
+        let origin = b.translation();
+        self.drives[k as usize] = FloorJoint {
+            pre: now,
+            axis,
+            active: true,
+            ..fj
+        };
+        if let Some(j) = self.world.impulse_joints.get_mut(fj.joint, false) {
             j.data
-                .set_local_frame1(frame)
-                .set_motor_velocity(JointAxis::LinX, v, MOTOR_DAMPING)
-                .set_motor_velocity(JointAxis::AngX, w, MOTOR_DAMPING);
+                .set_local_frame1(frame(origin, axis))
+                .set_motor_velocity(JointAxis::LinX, target.lin.dot(axis), MOTOR_DAMPING)
+                .set_motor_velocity(JointAxis::LinY, target.lin.dot(perp(axis)), MOTOR_DAMPING)
+                .set_motor_velocity(JointAxis::AngX, target.ang, MOTOR_DAMPING)
+                .set_motor_max_force(JointAxis::LinX, caps[0])
+                .set_motor_max_force(JointAxis::LinY, caps[1])
+                .set_motor_max_force(JointAxis::AngX, t_cap);
             if !j.data.is_enabled() {
                 j.data.set_enabled(true);
             }
-        } else if j.data.is_enabled() {
-            j.data.set_enabled(false);
         }
     }
 
-    fn in_contact(&self, collider: ColliderHandle) -> bool {
+    /// Whether a collider has a contact point closer than `reach` (m) to another. Contacts are
+    /// predicted from further away (see [`Physics::set_contact_prediction`]); those do not
+    /// touch yet.
+    fn in_contact(&self, collider: ColliderHandle, reach: f32) -> bool {
         self.world
             .narrow_phase
             .contact_pairs_with(collider)
-            .any(|p| p.has_any_active_contact())
+            .any(|p| {
+                p.solver_manifolds()
+                    .iter()
+                    .any(|m| m.data.solver_contacts.iter().any(|c| c.dist < reach))
+            })
     }
 
-    /// Advances the world by one step. Before stepping, each object's floor-friction frame is
-    /// turned to its direction of motion, so the friction cap applies along the motion (a
-    /// circle, not a box, of force).
-    pub fn step(&mut self) {
-        for &(body, jh) in &self.friction_joints {
-            let v = self.world.bodies[body].linvel();
-            if v.length_squared() > 1e-12 {
-                let angle = ops::angle_of(v);
-                if let Some(j) = self.world.impulse_joints.get_mut(jh, false) {
-                    j.data
-                        .set_local_frame1(rapier2d::math::Pose::new(Vec2::ZERO, angle));
+    /// Sets every movable object's floor-friction joint for the next step (see the module
+    /// documentation).
+    fn set_floor_friction(&mut self) {
+        let h = self.dt();
+        for k in 0..self.friction.len() {
+            let fj = self.friction[k].joint;
+            let (wf, wt) = self.applied_wrench(&fj);
+            let b = &self.world.bodies[fj.body];
+            let rot = b.rotation();
+            let now = Twist {
+                lin: b.linvel(),
+                ang: b.angvel(),
+            };
+            let free = Twist {
+                lin: now.lin + wf * (h / fj.mass),
+                ang: now.ang + wt * (h / fj.inertia),
+            };
+            let fr = &self.friction[k];
+            let fp = &fr.footprint;
+            let s = fp.step((rot.cos(), rot.sin()), fj.mass, fj.inertia, h, free, fr.end);
+            let (axis, motors) = if s.sticks {
+                let axis = direction_or(s.force, fj.axis);
+                let u = [
+                    s.force.length() / fp.f_max,
+                    0.0,
+                    s.torque.abs() / fp.tau_max.max(1e-12),
+                ];
+                let c = hold_box(u.map(|x| x.min(1.0)));
+                (
+                    axis,
+                    [
+                        Motor::hold(0.0, c[0] * fp.f_max),
+                        Motor::hold(0.0, c[1] * fp.f_max),
+                        Motor::hold(0.0, c[2] * fp.tau_max),
+                    ],
+                )
+            } else {
+                // Frame along the slip: the motors resist it with the wrench's components (the
+                // one across holds the predicted direction of slip), never push along it.
+                let axis = direction_or(-s.end.lin, direction_or(s.force, fj.axis));
+                let torque = if s.torque * s.end.ang <= 0.0 {
+                    s.torque.abs()
+                } else {
+                    0.0
+                };
+                (
+                    axis,
+                    [
+                        Motor::hold(0.0, s.force.dot(axis).max(0.0)),
+                        Motor::hold(0.0, s.force.dot(perp(axis)).abs()),
+                        Motor::hold(0.0, torque),
+                    ],
+                )
+            };
+            self.friction[k].end = s.end;
+            self.friction[k].joint = FloorJoint {
+                pre: now,
+                axis,
+                active: true,
+                ..fj
+            };
+            if let Some(j) = self.world.impulse_joints.get_mut(fj.joint, false) {
+                j.data.set_local_frame1(frame(Vec2::ZERO, axis));
+                for (ax, m) in [JointAxis::LinX, JointAxis::LinY, JointAxis::AngX]
+                    .into_iter()
+                    .zip(motors)
+                {
+                    m.apply(&mut j.data, ax);
                 }
             }
         }
+    }
+
+    /// Advances the world by one step, after setting the objects' floor friction for it.
+    /// Call [`Physics::drive`] for every robot first.
+    pub fn step(&mut self) {
+        self.set_floor_friction();
         self.world.step();
+        let p = &self.world.integration_parameters;
+        self.last_step = (p.dt, p.num_solver_iterations);
     }
 
     /// Fixes `robot` to `target` at their current relative pose; contacts between the two
@@ -557,10 +980,15 @@ impl Physics {
         })
     }
 
-    /// Whether a body currently touches any collider with the given kind of tag.
+    /// Whether a body currently touches (within [`TOUCH`]) any collider with the given kind of
+    /// tag.
     pub fn touches(&self, id: BodyId, mut pred: impl FnMut(Tag) -> bool) -> bool {
         for pair in self.world.narrow_phase.contact_pairs_with(id.collider) {
-            if !pair.has_any_active_contact() {
+            let close = pair
+                .solver_manifolds()
+                .iter()
+                .any(|m| m.data.solver_contacts.iter().any(|c| c.dist < TOUCH));
+            if !close {
                 continue;
             }
             let other = if pair.collider1 == id.collider {
@@ -575,6 +1003,23 @@ impl Physics {
             }
         }
         false
+    }
+
+    /// Signed distance between the surfaces of two bodies: the gap, or minus the depth by which
+    /// they overlap.
+    pub fn separation(&self, a: BodyId, b: BodyId) -> f32 {
+        let ca = &self.world.colliders[a.collider];
+        let cb = &self.world.colliders[b.collider];
+        rapier2d::parry::query::contact(
+            ca.position(),
+            ca.shape(),
+            cb.position(),
+            cb.shape(),
+            f32::MAX,
+        )
+        .ok()
+        .flatten()
+        .map_or(f32::MAX, |c| c.dist)
     }
 
     /// Distance between the surfaces of two bodies (0 when they touch or overlap).

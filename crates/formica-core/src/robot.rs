@@ -239,6 +239,12 @@ impl RobotModel {
         }
     }
 
+    /// Largest torque the wheels resist with when locked (an attached robot braking): the drive
+    /// force at the wheels, `max_force * wheel_distance / 2`, or the drive torque if smaller.
+    pub fn brake_torque(&self) -> f32 {
+        (self.max_force * self.wheel_distance / 2.0).min(self.max_torque)
+    }
+
     /// Distributes a light of strength `value` arriving from `bearing` (robot frame) over the
     /// sensors, adding into `out` (one slot per light sensor).
     pub fn spread_light(&self, bearing: f32, value: f32, out: &mut [f32]) {

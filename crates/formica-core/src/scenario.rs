@@ -563,9 +563,9 @@ pub struct RunSpec {
     /// Control ticks per second.
     #[serde(default = "default_tick_hz")]
     pub tick_hz: f32,
-    /// Physics steps per tick.
-    #[serde(default = "default_substeps")]
-    pub substeps: u32,
+    /// Physics steps per tick: `"auto"` (the default, see [`Substeps::Auto`]) or a number.
+    #[serde(default)]
+    pub substeps: Substeps,
     /// Simulated time limit (s).
     #[serde(default = "default_duration")]
     pub duration_s: f32,
@@ -577,10 +577,70 @@ pub struct RunSpec {
 fn default_tick_hz() -> f32 {
     10.0
 }
-/// Default physics steps per control tick.
-pub const DEFAULT_SUBSTEPS: u32 = 1;
-fn default_substeps() -> u32 {
-    DEFAULT_SUBSTEPS
+/// Physics steps per control tick, as a scenario gives them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Substeps {
+    /// Each tick, as few as keep every body to at most [`MAX_STEP_FRACTION`] of the smallest
+    /// robot radius per step, from the fastest body or wheel command at the start of the tick:
+    /// one step for Khepera IV at 0.1 m/s at 10 ticks/s, four at their top speed of 0.8 m/s.
+    #[default]
+    Auto,
+    /// Exactly this many (1 to 100).
+    Fixed(u32),
+}
+
+/// The most a body may move in one physics step, as a fraction of the smallest robot radius,
+/// for contacts to hold (no robot passes through another).
+pub const MAX_STEP_FRACTION: f32 = 1.0 / 3.0;
+
+/// Physics steps per tick that keep a body moving at `speed` (m/s) to [`MAX_STEP_FRACTION`] of
+/// `radius` per step, at `tick_hz` (1 to 100).
+pub fn steps_for(speed: f32, radius: f32, tick_hz: f32) -> u32 {
+    let per_tick = speed / tick_hz;
+    let steps = (per_tick / (MAX_STEP_FRACTION * radius)).ceil();
+    if steps.is_finite() {
+        (steps as u32).clamp(1, 100)
+    } else {
+        1
+    }
+}
+
+impl Serialize for Substeps {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Substeps::Auto => s.serialize_str("auto"),
+            Substeps::Fixed(n) => s.serialize_u32(*n),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Substeps {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Substeps;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("\"auto\" or an integer from 1 to 100")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Substeps, E> {
+                if v == "auto" {
+                    Ok(Substeps::Auto)
+                } else {
+                    Err(E::invalid_value(serde::de::Unexpected::Str(v), &self))
+                }
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Substeps, E> {
+                match u32::try_from(v) {
+                    Ok(n) if (1..=100).contains(&n) => Ok(Substeps::Fixed(n)),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Signed(v), &self)),
+                }
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Substeps, E> {
+                self.visit_i64(i64::try_from(v).unwrap_or(i64::MAX))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 fn default_duration() -> f32 {
     1200.0
@@ -593,7 +653,7 @@ impl Default for RunSpec {
     fn default() -> Self {
         Self {
             tick_hz: default_tick_hz(),
-            substeps: default_substeps(),
+            substeps: Substeps::Auto,
             duration_s: default_duration(),
             seed: default_seed(),
         }
@@ -989,6 +1049,50 @@ impl Scenario {
             .or_else(|| (!l.is_empty() && l[0].get_ref().goal != Some(false)).then_some(0))
     }
 
+    /// The robot models in use: the largest top speed and the smallest radius (m/s, m).
+    pub fn speed_and_radius(&self) -> Option<(f32, f32)> {
+        self.spec
+            .robots
+            .iter()
+            .filter_map(|g| self.registry.robot_model(g.get_ref().model.get_ref()))
+            .map(|m| (m.max_speed, m.radius))
+            .reduce(|a, b| (a.0.max(b.0), a.1.min(b.1)))
+    }
+
+    /// The most physics steps a tick takes: the file's number, or for `"auto"` what a robot at
+    /// its model's top speed needs (see [`Substeps::Auto`]).
+    pub fn max_substeps(&self) -> u32 {
+        match self.spec.run.substeps {
+            Substeps::Fixed(n) => n,
+            Substeps::Auto => self
+                .speed_and_radius()
+                .map_or(1, |(v, r)| steps_for(v, r, self.spec.run.tick_hz)),
+        }
+    }
+
+    /// The physics guard: a warning if, with the tick rate and sub-steps in use, a robot at
+    /// its model's top speed would move more than [`MAX_STEP_FRACTION`] of the smallest robot
+    /// radius in one physics step (contacts are then not to be trusted: robots can pass
+    /// through each other).
+    pub fn physics_warning(&self) -> Option<String> {
+        let (v, r) = self.speed_and_radius()?;
+        let n = self.max_substeps();
+        let step = v / (self.spec.run.tick_hz * n as f32);
+        let limit = MAX_STEP_FRACTION * r;
+        (step > limit * (1.0 + 1e-6)).then(|| {
+            format!(
+                "at {} ticks/s and {n} physics step(s) per tick a robot at its top speed ({v} m/s) \
+                 moves {:.1} mm per step, more than a third of the smallest robot radius \
+                 ({:.1} mm): contacts cannot be trusted (robots may pass through each other); \
+                 leave run.substeps out (\"auto\") or set it to at least {}",
+                self.spec.run.tick_hz,
+                step * 1000.0,
+                limit * 1000.0,
+                steps_for(v, r, self.spec.run.tick_hz),
+            )
+        })
+    }
+
     fn validate(&self) -> Result<(), ScenarioError> {
         let s = &self.spec;
         let top = |m: &str| self.error_at(0..0, m.to_string());
@@ -997,9 +1101,6 @@ impl Scenario {
         }
         if !(s.run.tick_hz > 0.0 && s.run.tick_hz <= 1000.0) {
             return Err(top("run.tick_hz: expected a number in (0, 1000]"));
-        }
-        if s.run.substeps == 0 || s.run.substeps > 100 {
-            return Err(top("run.substeps: expected an integer from 1 to 100"));
         }
         if !(s.run.duration_s > 0.0) {
             return Err(top("run.duration_s: expected a positive number"));
@@ -1397,6 +1498,51 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         .to_string();
         assert!(e.contains("count must be at least 1"), "{e}");
         assert!(e.contains("`robots.0.count` = 0"), "{e}");
+    }
+
+    #[test]
+    fn substeps_are_auto_or_a_number_and_the_guard_checks_them() {
+        let with = |run: &str| Scenario::parse(&format!("{MIN}[run]\n{run}\n"), "t.toml");
+        let sc = Scenario::parse(MIN, "t.toml").unwrap();
+        assert_eq!(sc.spec.run.substeps, Substeps::Auto);
+        // Khepera IV at 0.8 m/s, 10 ticks/s: 8 cm per tick, a third of 7.04 cm per step.
+        assert_eq!(sc.max_substeps(), 4);
+        assert!(sc.physics_warning().is_none());
+        let sc = with("substeps = \"auto\"").unwrap();
+        assert_eq!(sc.spec.run.substeps, Substeps::Auto);
+        let sc = with("substeps = 1").unwrap();
+        assert_eq!(sc.max_substeps(), 1);
+        let w = sc.physics_warning().unwrap();
+        assert!(
+            w.contains("80.0 mm per step") && w.contains("at least 4"),
+            "{w}"
+        );
+        assert!(with("substeps = 4").unwrap().physics_warning().is_none());
+        assert!(with("substeps = 1\ntick_hz = 100")
+            .unwrap()
+            .physics_warning()
+            .is_none());
+        for bad in [
+            "substeps = 0",
+            "substeps = 101",
+            "substeps = 2.5",
+            "substeps = \"fast\"",
+        ] {
+            let e = with(bad).unwrap_err().to_string();
+            assert!(
+                e.contains("\"auto\" or an integer from 1 to 100"),
+                "{bad}: {e}"
+            );
+        }
+        // Written back as the file says, so sweeps can override it.
+        let sc = Scenario::parse_with_overrides(
+            MIN,
+            "t.toml",
+            &[("run.substeps".into(), toml::Value::Integer(8))],
+            ("sweep.toml", ""),
+        )
+        .unwrap();
+        assert_eq!(sc.spec.run.substeps, Substeps::Fixed(8));
     }
 
     #[test]

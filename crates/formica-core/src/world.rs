@@ -1,11 +1,15 @@
 //! The world: walls, objects, lights and robots built from a scenario, and the one function
 //! that holds the tick order ([`World::step`]): act, physics sub-steps, sense, control.
 
-use crate::controller::{Actuation, AttachCommand, Controller, ControllerFactory, RobotRng};
+use crate::controller::{
+    Actuation, AttachCommand, BatchController, BatchRobot, Controller, ControllerFactory, RobotRng,
+};
 use crate::geometry::{compound_shape, part_outlines, Part, Pose, Vec2};
 use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
-use crate::scenario::{Color, Placement, Scenario, ScenarioError, SensorConfig};
+use crate::scenario::{
+    steps_for, Color, Placement, Scenario, ScenarioError, SensorConfig, Substeps,
+};
 use crate::sensors::{sense, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds};
 use rand::{Rng, SeedableRng};
 
@@ -63,12 +67,20 @@ pub struct Group {
     /// Controller name.
     pub controller: String,
     factory: ControllerFactory,
+    /// The group's batch controller, when its controller decides for all its robots at once.
+    batch: Option<Box<dyn BatchController>>,
 }
 
 impl Group {
     /// Which sensors this group's controllers read.
     pub fn needs(&self) -> SensorNeeds {
         self.factory.needs
+    }
+
+    /// Whether one batch controller decides for all the group's robots
+    /// ([`ControllerFactory::batched`]).
+    pub fn is_batched(&self) -> bool {
+        self.batch.is_some()
     }
 }
 
@@ -154,8 +166,12 @@ pub struct World {
     pub tick_s: f32,
     /// Ticks per second.
     pub tick_hz: f64,
-    /// Physics steps per tick.
+    /// Physics steps in the last tick.
     pub substeps: u32,
+    /// Fixed physics steps per tick, or `None` for as many as the speeds need.
+    fixed_substeps: Option<u32>,
+    /// Smallest robot radius (m), for the automatic sub-steps.
+    smallest_radius: f32,
     /// Seed in use.
     pub seed: u64,
     /// Arena centre and size.
@@ -184,9 +200,10 @@ impl World {
     pub fn new(sc: &Scenario, ov: &Overrides) -> Result<World, ScenarioError> {
         let spec = &sc.spec;
         let seed = ov.seed.unwrap_or(spec.run.seed);
-        let substeps = spec.run.substeps;
         let tick_s = 1.0 / spec.run.tick_hz;
+        let substeps = sc.max_substeps();
         let mut physics = Physics::new(tick_s / substeps as f32);
+        let smallest_radius = sc.speed_and_radius().map_or(0.0, |(_, r)| r);
 
         // Arena walls, centred on the border of the usable area.
         let c = Vec2::new(spec.arena.center[0], spec.arena.center[1]);
@@ -330,6 +347,7 @@ impl World {
                 layout,
                 sensors,
                 controller: name,
+                batch: factory.make_batch(),
                 factory,
             });
         }
@@ -347,7 +365,12 @@ impl World {
             tick: 0,
             tick_s,
             tick_hz: f64::from(spec.run.tick_hz),
-            substeps,
+            substeps: 0,
+            fixed_substeps: match spec.run.substeps {
+                Substeps::Fixed(n) => Some(n),
+                Substeps::Auto => None,
+            },
+            smallest_radius,
             seed,
             arena: (c, Vec2::new(w, h)),
             near: Vec::new(),
@@ -360,23 +383,81 @@ impl World {
     /// Robots start still: their controllers first run at the end of the first tick, once the
     /// physics has built its query tree.
     pub fn step(&mut self) {
+        self.step_with(|_| {});
+    }
+
+    /// [`World::step`], calling `each` after every physics step of the tick (to watch contacts
+    /// between ticks).
+    pub fn step_with(&mut self, mut each: impl FnMut(&World)) {
         self.release();
         self.act();
-        for _ in 0..self.substeps {
-            for r in &self.robots {
-                if let Some(body) = r.body {
-                    let model = &self.groups[r.group].model;
-                    let free = r.attached.is_some();
-                    self.physics
-                        .drive(body, model, r.action.left, r.action.right, free);
-                }
-            }
-            self.physics.step();
+        let n = self.plan_substeps();
+        for _ in 0..n {
+            self.physics_step();
+            each(self);
         }
         self.tick += 1;
         self.time_s = self.tick as f64 / self.tick_hz;
         self.sense();
         self.control();
+    }
+
+    /// Chooses this tick's physics steps (fixed, or enough for the fastest body or wheel
+    /// command; see [`Substeps::Auto`]) and sets the step up for them.
+    fn plan_substeps(&mut self) -> u32 {
+        let commanded = self
+            .robots
+            .iter()
+            .filter(|r| r.body.is_some())
+            .map(|r| {
+                // A disc turning about its centre sweeps nothing: its centre's speed counts.
+                let top = self.groups[r.group].model.max_speed;
+                let (l, rt) = (
+                    r.action.left.clamp(-top, top),
+                    r.action.right.clamp(-top, top),
+                );
+                (0.5 * (l + rt)).abs()
+            })
+            .fold(0.0, f32::max);
+        let speed = commanded.max(self.physics.fastest_speed());
+        let n = self.fixed_substeps.unwrap_or_else(|| {
+            if self.smallest_radius > 0.0 {
+                steps_for(speed, self.smallest_radius, self.tick_hz as f32)
+            } else {
+                1
+            }
+        });
+        let dt = self.tick_s / n as f32;
+        if n != self.substeps {
+            self.substeps = n;
+            self.physics.set_dt(dt);
+            // About eight solver sub-steps per tick, at least two per physics step (four,
+            // rapier's default, with one step per tick).
+            self.physics
+                .set_solver_iterations(8u32.div_ceil(n).clamp(2, 4) as usize);
+        }
+        // Two bodies close in by up to twice the most one moves per step (no body outruns the
+        // fastest body or command): contacts must be found before they touch.
+        self.physics.set_contact_prediction(2.5 * speed * dt);
+        n
+    }
+
+    /// One physics step: every released robot drives at its last commanded wheel speeds, then
+    /// the bodies move.
+    fn physics_step(&mut self) {
+        for r in &self.robots {
+            if let Some(body) = r.body {
+                let model = &self.groups[r.group].model;
+                self.physics.drive(
+                    body,
+                    model,
+                    r.action.left,
+                    r.action.right,
+                    r.attached.is_some(),
+                );
+            }
+        }
+        self.physics.step();
     }
 
     /// Applies last tick's decisions that are not wheel speeds: LEDs and attach/detach.
@@ -527,14 +608,43 @@ impl World {
         }
     }
 
-    /// Runs every released robot's controller.
+    /// Runs every released robot's controller, then each group's batch controller.
     fn control(&mut self) {
+        let groups = &mut self.groups;
         for r in &mut self.robots {
-            if r.body.is_none() {
+            if r.body.is_none() || groups[r.group].batch.is_some() {
                 continue;
             }
             r.action = r.controller.step(&r.readings, &mut r.rng);
             r.state = r.controller.state();
+        }
+        for (g, group) in groups.iter_mut().enumerate() {
+            let Some(batch) = group.batch.as_mut() else {
+                continue;
+            };
+            let mut members: Vec<BatchRobot<'_>> = self
+                .robots
+                .iter_mut()
+                .enumerate()
+                .filter(|(_, r)| r.group == g && r.body.is_some())
+                .map(|(index, r)| BatchRobot {
+                    index,
+                    readings: &r.readings,
+                    rng: &mut r.rng,
+                    action: r.action,
+                    state: r.state,
+                })
+                .collect();
+            batch.step(&mut members);
+            let decided: Vec<(usize, Actuation, &'static str)> = members
+                .iter()
+                .map(|m| (m.index, m.action, m.state))
+                .collect();
+            drop(members);
+            for (i, action, state) in decided {
+                self.robots[i].action = action;
+                self.robots[i].state = state;
+            }
         }
     }
 

@@ -145,14 +145,19 @@ placement = { poses = [[-0.33, 0.1, 0.0], [-0.33, -0.1, 0.0]] }
     run_for(&mut run, 0.5);
     assert!(run.world.robots[0].attached.is_some(), "did not attach");
     let obj0 = run.world.object_center(0);
-    let rob0 = run.world.robot_pose(0).position();
+    // In the object's frame: the braking robot turns the box as it is dragged.
+    let rel0 = run
+        .world
+        .object_pose(0)
+        .local_from_world(run.world.robot_pose(0).position());
     run_for(&mut run, 8.0);
     let obj1 = run.world.object_center(0);
-    let rob1 = run.world.robot_pose(0).position();
     let moved = (obj1 - obj0).length();
     assert!(moved > 0.2, "box moved only {moved} m");
-    let rel0 = rob0 - obj0;
-    let rel1 = rob1 - obj1;
+    let rel1 = run
+        .world
+        .object_pose(0)
+        .local_from_world(run.world.robot_pose(0).position());
     assert!(
         (rel1 - rel0).length() < 0.01,
         "attached robot slid by {} m",

@@ -99,3 +99,50 @@ proptest! {
         prop_assert!(inside_arena(&run));
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
+    #[test]
+    fn floor_friction_never_accelerates_a_body(
+        vx in -1.0f32..1.0,
+        vy in -1.0f32..1.0,
+        w in -4.0f32..4.0,
+        mu in 0.05f32..0.6,
+        yaw in 0.0f32..360.0,
+        disc in proptest::bool::ANY,
+    ) {
+        // A 0.6 x 0.2 m box or a 0.2 m disc of 5 kg, launched and left to friction: its
+        // kinetic energy never grows, step after step.
+        let (shape, inertia) = if disc {
+            ("{ disc = 0.2 }", 5.0 * 0.2 * 0.2 / 2.0)
+        } else {
+            ("{ box = [0.6, 0.2] }", 5.0 * (0.36 + 0.04) / 12.0)
+        };
+        let sc = scenario(&format!(
+            "[[objects]]\nat = [0.0, 0.0]\nyaw_deg = {yaw}\nshape = {shape}\nmass = 5.0\nfloor_mu = {mu}\n"
+        ));
+        let mut run = start(&sc, 1);
+        let body = run.world.objects[0].body;
+        run.world
+            .physics
+            .set_velocity(body, formica::geometry::Vec2::new(vx, vy), w);
+        let energy = |world: &formica::World| {
+            let v = world.physics.velocity(body).length_squared();
+            let w = world.physics.angular_velocity(body);
+            0.5 * 5.0 * v + 0.5 * inertia * w * w
+        };
+        let mut last = energy(&run.world);
+        let mut grew = None;
+        for _ in 0..80 {
+            run.world.step_with(|world| {
+                let e = energy(world);
+                if e > last * (1.0 + 1e-5) + 1e-9 && grew.is_none() {
+                    grew = Some((last, e));
+                }
+                last = e;
+            });
+        }
+        prop_assert!(grew.is_none(), "kinetic energy grew: {grew:?}");
+        prop_assert!(last < 1e-9, "still moving after 8 s: {last} J");
+    }
+}

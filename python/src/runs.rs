@@ -1,0 +1,102 @@
+//! Whole runs: `formica.run` (seeds of one scenario, as `formica run --json`) and the
+//! `formica` command itself (`formica.sweep` runs its `sweep` subcommand).
+
+use crate::world::{uses_python, Build};
+use crate::{guard, input_error, result_to_py, scenario_error};
+use formica::experiment::Run;
+use formica::{Registry, RunResult};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use rayon::prelude::*;
+
+/// Runs one seed on this thread, attached to the interpreter (Python controllers step here),
+/// checking for Ctrl-C every few hundred ticks.
+fn run_attached(
+    py: Python<'_>,
+    sc: &formica::Scenario,
+    b: &Build,
+    seed: u64,
+) -> PyResult<RunResult> {
+    let mut run = Run::new(sc, &b.options(Some(seed))).map_err(|e| scenario_error(py, &e))?;
+    let mut k = 0u32;
+    while run.step().is_none() {
+        k += 1;
+        if k % 256 == 0 {
+            py.check_signals()?;
+        }
+    }
+    Ok(run.result())
+}
+
+/// Runs `scenario` once per seed and returns the results as dicts, in seed order: the JSON
+/// lines of `formica run --json`. `threads`: worker threads (default: every core, or 1 when
+/// Python controllers run, which then step on the calling thread).
+#[pyfunction]
+#[pyo3(signature = (scenario, seeds, threads = None, duration = None, controller = None))]
+pub fn run_seeds(
+    py: Python<'_>,
+    scenario: &Bound<'_, PyAny>,
+    seeds: Vec<u64>,
+    threads: Option<usize>,
+    duration: Option<f32>,
+    controller: Option<String>,
+) -> PyResult<Vec<Py<PyAny>>> {
+    guard(|| {
+        let sc = crate::scenario::scenario_of(py, scenario)?;
+        let b = Build {
+            duration,
+            controller,
+            record: false,
+        };
+        b.check(&sc)?;
+        if threads == Some(0) {
+            return Err(PyValueError::new_err("threads: expected at least 1"));
+        }
+        let Some(&first) = seeds.first() else {
+            return Ok(Vec::new());
+        };
+        // Check the scenario builds before fanning out, so errors are reported once.
+        Run::new(&sc, &b.options(Some(first))).map_err(|e| scenario_error(py, &e))?;
+        let python = uses_python(&sc, &b);
+        let results: Vec<RunResult> = if python && threads.unwrap_or(1) == 1 {
+            seeds
+                .iter()
+                .map(|&s| run_attached(py, &sc, &b, s))
+                .collect::<PyResult<_>>()?
+        } else {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.unwrap_or(0))
+                .build()
+                .map_err(|e| PyRuntimeError::new_err(format!("starting worker threads: {e}")))?;
+            let out: Vec<Result<RunResult, formica::ScenarioError>> = py.detach(|| {
+                pool.install(|| {
+                    seeds
+                        .par_iter()
+                        .map(|&s| formica::run(&sc, &b.options(Some(s))).map(|(r, _)| r))
+                        .collect()
+                })
+            });
+            out.into_iter()
+                .collect::<Result<_, _>>()
+                .map_err(|e| scenario_error(py, &e))?
+        };
+        results.iter().map(|r| result_to_py(py, r)).collect()
+    })
+}
+
+/// Runs a `formica` subcommand (`args` as on the command line, without the program name)
+/// with the process-wide registry, Python controllers included. Bad input (exit code 2)
+/// raises `ScenarioError`, other failures `RuntimeError`.
+#[pyfunction]
+pub fn command(py: Python<'_>, args: Vec<String>) -> PyResult<()> {
+    guard(|| {
+        let argv: Vec<String> = std::iter::once("formica".to_string()).chain(args).collect();
+        let r = py.detach(|| formica_cli::try_main_from(Registry::global(), argv));
+        match r {
+            Ok(()) => Ok(()),
+            Err(e) if e.code == 0 => Ok(()),
+            Err(e) if e.code == 2 => Err(input_error(py, &e.message)),
+            Err(e) => Err(PyRuntimeError::new_err(e.message)),
+        }
+    })
+}

@@ -1,0 +1,251 @@
+"""Controllers written in Python: per robot and batched, in run, sweep and World."""
+
+import numpy as np
+import pytest
+
+import formica
+from conftest import ROOT, SEED_TRANSPORT
+
+
+class Wander:
+    """Drives forward, turning by a random amount now and then; avoids what it senses."""
+
+    needs = ("proximity",)
+
+    def __init__(self, layout, speed=0.1, turn_every_s=2.0):
+        self.layout = layout
+        self.speed = speed
+        self.every = turn_every_s
+        self.turn = 0.0
+        self.next_s = 0.0
+        self.state = "wander"
+
+    def step(self, r):
+        if r.time_s >= self.next_s:
+            self.turn = self.rng.uniform(-2.0, 2.0)
+            self.next_s = r.time_s + self.every
+        prox = r.proximity
+        if max(prox) > 0.3:
+            self.state = "avoid"
+            left, right = self.layout.twist(0.0, 2.0 if sum(prox[4:]) > sum(prox[:4]) else -2.0)
+            return left, right, "red"
+        self.state = "wander"
+        left, right = self.layout.twist(self.speed, self.turn)
+        return left, right, "green", None
+
+
+formica.register_controller("py-wander", Wander)
+
+
+@formica.register_batched("py-swarm")
+def swarm(readings, batch):
+    """Every robot drives forward and turns away from the sum of its proximity readings,
+    plus a per-robot random jitter."""
+    prox = readings[:, :8]
+    angles = np.asarray(batch.layout.proximity_angles)
+    push = (prox * np.sin(angles)).sum(axis=1)
+    turn = -3.0 * push + batch.rng.uniform(-0.5, 0.5)
+    forward = np.where(prox.max(axis=1) > 0.5, 0.0, 0.1)
+    half = turn * batch.layout.wheel_distance / 2
+    return np.stack([forward - half, forward + half], axis=1)
+
+
+@formica.register_batched("py-constant", needs=())
+def constant(readings, speed=0.05):
+    return np.full((len(readings), 2), speed)
+
+
+def scenario(controller, count=8, params=None):
+    sc = formica.load(SEED_TRANSPORT).set("robots.0.count", count).set("robots.0.controller", controller)
+    return sc.set("robots.0.params", params or {})
+
+
+def strip(rows):
+    return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in rows]
+
+
+def test_python_controllers_are_registered_names():
+    assert {"py-wander", "py-swarm", "py-constant", "external", "occlusion"} <= set(formica.controllers())
+
+
+def test_a_per_robot_python_controller_is_deterministic():
+    sc = scenario("py-wander", params={"speed": 0.12})
+    first = formica.run(sc, seeds=[1, 2], duration=30, as_frame=False)
+    again = formica.run(sc, seeds=[1, 2], duration=30, as_frame=False)
+    assert strip(first) == strip(again)
+    assert first[0]["controller"] == "py-wander"
+    # Other seeds, other runs; the world agrees with run.
+    w1, w2 = formica.World(sc, seed=1, duration=30), formica.World(sc, seed=1, duration=30)
+    w1.step(100), w2.step(100)
+    np.testing.assert_array_equal(w1.robot_poses, w2.robot_poses)
+    assert set(w1.states) <= {"wander", "avoid"}
+    assert set(formica.COLORS[c] for c in w1.leds) <= {"green", "red"}
+    w3 = formica.World(sc, seed=2, duration=30)
+    w3.step(100)
+    assert not np.array_equal(w1.robot_poses, w3.robot_poses)
+    assert strip([w1.run()]) == strip(first[:1])
+
+
+def test_python_runs_on_threads_equal_the_attached_run():
+    sc = scenario("py-wander")
+    attached = formica.run(sc, seeds=[3, 4], duration=20, as_frame=False)
+    threaded = formica.run(sc, seeds=[3, 4], duration=20, threads=2, as_frame=False)
+    assert strip(attached) == strip(threaded)
+
+
+def test_a_batched_python_controller_is_deterministic():
+    sc = scenario("py-swarm", count=12)
+    w = formica.World(sc, seed=4)
+    assert w.groups[0]["batched"]
+    w.step(50)
+    assert w.states == ["batched"] * 12
+    first = formica.run(sc, seeds=[1, 2], duration=30, as_frame=False)
+    assert strip(first) == strip(formica.run(sc, seeds=[1, 2], duration=30, as_frame=False))
+    assert first[0]["object_path_m"] >= 0.0
+
+
+def test_batched_params_come_as_keyword_arguments():
+    w = formica.World(scenario("py-constant", count=2, params={"speed": 0.08}), seed=1)
+    w.step(3)
+    np.testing.assert_allclose(w.wheel_speeds, np.full((2, 2), 0.08))
+
+
+def test_bad_parameters_fail_where_the_scenario_names_them(tmp_path):
+    path = tmp_path / "bad-params.toml"
+    path.write_text(
+        '[arena]\nsize = [2.0, 2.0]\n[[robots]]\ncontroller = "py-wander"\n'
+        "params = { sped = 0.1 }\nplacement = { poses = [[0.0, 0.0, 0.0]] }\n"
+    )
+    with pytest.raises(formica.ScenarioError, match=r"bad-params.toml:5:10: robots\[0\] controller `py-wander`: TypeError: .*sped"):
+        formica.World(path)
+
+
+def test_wrong_shapes_and_nan_from_a_batched_controller_are_value_errors():
+    @formica.register_batched("py-bad-shape")
+    def bad_shape(readings):
+        return np.zeros((len(readings), 3))
+
+    @formica.register_batched("py-nan")
+    def nan(readings):
+        return np.full((len(readings), 2), np.nan)
+
+    with pytest.raises(ValueError, match=r"py-bad-shape.*shape \(4, 2\), got \[4, 3\]"):
+        formica.World(scenario("py-bad-shape", count=4)).step(2)
+    with pytest.raises(ValueError, match="py-nan.*finite"):
+        formica.run(scenario("py-nan", count=4), seeds=1, duration=5)
+
+
+def test_an_exception_in_a_controller_comes_out_and_the_world_is_spent():
+    class Boom:
+        def __init__(self, layout):
+            pass
+
+        def step(self, r):
+            if r.time_s > 0.25:
+                raise KeyError("boom")
+            return 0.0, 0.0
+
+    formica.register_controller("py-boom", Boom)
+    w = formica.World(scenario("py-boom", count=3))
+    with pytest.raises(KeyError, match="boom"):
+        w.step(10)
+    with pytest.raises(RuntimeError, match="half-way"):
+        w.step()
+    with pytest.raises(KeyError, match="boom"):
+        formica.run(scenario("py-boom", count=3), seeds=[1, 2], threads=2, duration=5)
+
+
+def test_a_step_returning_nonsense_is_a_clear_error():
+    class Nonsense:
+        def __init__(self, layout):
+            pass
+
+        def step(self, r):
+            return float("nan"), 0.0
+
+    formica.register_controller("py-nonsense", Nonsense)
+    with pytest.raises(ValueError, match="py-nonsense.*finite"):
+        formica.World(scenario("py-nonsense", count=1)).step(2)
+
+
+def test_a_rust_panic_is_a_python_exception():
+    with pytest.raises(formica.PanicError, match="panic_for_test"):
+        formica._formica.panic_for_test()
+    assert issubclass(formica.PanicError, RuntimeError)
+
+
+def test_the_rng_is_deterministic_per_seed():
+    a, b = formica.Rng(3), formica.Rng(3)
+    assert [a.random() for _ in range(5)] == [b.random() for _ in range(5)]
+    assert 0.0 <= a.uniform(0.0, 1.0) < 1.0 and a.integers(2, 3) == 2
+    with pytest.raises(ValueError):
+        a.uniform(1.0, 0.0)
+
+
+def test_a_sweep_runs_python_controllers_into_a_store(tmp_path):
+    sweep = tmp_path / "wander.toml"
+    # A sweep file names its scenario relative to itself.
+    sweep.write_text(
+        f'name = "wander"\nscenario = "{ROOT / SEED_TRANSPORT}"\nseeds = "1..2"\n'
+        'duration_s = 10\n[set]\n"robots.0.controller" = "py-wander"\n'
+        '[vary]\n"robots.0.count" = [3, 5]\n'
+    )
+    db = tmp_path / "wander.db"
+    df = formica.sweep(sweep, db=db, threads=1)
+    assert len(df) == 4 and set(df["controller"]) == {"py-wander"}
+    assert sorted(df["robots"]) == [3, 3, 5, 5]
+    # Resumable: a second call runs nothing new and reads the same store.
+    again = formica.sweep(sweep, db=db)
+    assert again["sim_time_s"].tolist() == df["sim_time_s"].tolist()
+    rows = formica.read_store(db, as_frame=False)
+    assert [r["seed"] for r in rows] == [1, 2, 1, 2]
+    # The same trial through formica.run gives the same numbers.
+    sc = formica.load(SEED_TRANSPORT).set("robots.0.controller", "py-wander").set("robots.0.count", 3)
+    (ref,) = formica.run(sc, seeds=1, duration=10, as_frame=False)
+    assert rows[0]["object_path_m"] == ref["object_path_m"] and rows[0]["ticks"] == ref["ticks"]
+
+
+def test_a_batched_controller_in_a_sweep_and_the_command_in_process(tmp_path, capfd):
+    sweep = tmp_path / "swarm.toml"
+    sweep.write_text(
+        f'scenario = "{ROOT / SEED_TRANSPORT}"\nseeds = [4]\nduration_s = 5\n'
+        '[vary]\n"robots.0.controller" = ["py-swarm", "py-wander"]\n'
+    )
+    rows = formica.sweep(sweep, as_frame=False)
+    assert [r["controller"] for r in rows] == ["py-swarm", "py-wander"]
+    assert (tmp_path / "swarm.db").exists()
+    formica.cli("check", str(ROOT / SEED_TRANSPORT))
+    assert "seed-transport" in capfd.readouterr().out
+    with pytest.raises(formica.ScenarioError, match="missing.toml: cannot read"):
+        formica.cli("check", "missing.toml")
+
+
+def test_a_bad_sweep_file_raises_scenario_error(tmp_path):
+    sweep = tmp_path / "bad.toml"
+    sweep.write_text('seeds = "1..2"\nscenario = "nowhere.toml"\n')
+    with pytest.raises(formica.ScenarioError, match="nowhere.toml"):
+        formica.sweep(sweep, db=tmp_path / "bad.db")
+
+
+def test_a_per_robot_controller_sees_its_row_of_the_readings():
+    seen = {}
+
+    class Recorder:
+        def __init__(self, layout):
+            assert layout.size == 24 and layout.names[16] == "x" and layout.slots["light"] == (8, 8)
+            assert len(layout.proximity_angles) == 8 and layout.max_speed == pytest.approx(0.8)
+
+        def step(self, r):
+            x, y, theta = r.pose
+            assert (x, y) == (r.x, r.y) and r["theta"] == theta and len(r) == 24
+            assert len(r.proximity) == 8 and r.beacon == (r.beacon_x, r.beacon_y)
+            assert r.attached is False and r.blobs == []
+            seen[round(r.time_s, 3), x] = r.vector
+            return 0.05, 0.05
+
+    formica.register_controller("py-recorder", Recorder)
+    w = formica.World(scenario("py-recorder", count=3), seed=1)
+    w.step(4)
+    rows = w.readings()
+    for row in rows:
+        np.testing.assert_array_equal(seen[round(float(row[23]), 3), float(row[16])], row)

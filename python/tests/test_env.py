@@ -1,0 +1,88 @@
+"""formica.env: the PettingZoo environment, its Gymnasium wrapper and the vectorised form."""
+
+import numpy as np
+import pytest
+from pettingzoo.test import parallel_api_test
+
+import formica
+import formica.env as fenv
+
+
+def test_the_parallel_env_passes_the_pettingzoo_api_test():
+    env = fenv.parallel_env(robots=6, max_steps=40)
+    parallel_api_test(env, num_cycles=60)
+
+
+def test_agents_observations_actions_and_rewards():
+    env = fenv.parallel_env(robots=5, progress_reward=100.0)
+    obs, infos = env.reset(seed=11)
+    assert env.agents == [f"robot_{i}" for i in range(5)]
+    space = env.observation_space("robot_0")
+    assert space.shape == (24,) and space.dtype == np.float32
+    assert env.action_space("robot_3").shape == (2,) and np.allclose(env.action_space("robot_3").high, 0.8)
+    assert all(space.contains(o) for o in obs.values())
+    assert env.reading_names[16] == "x" and infos["robot_0"]["seed"] == 11
+    before = env.world.goal_distance
+    obs, rew, term, trunc, info = env.step({a: np.array([0.1, 0.1], dtype=np.float32) for a in env.agents})
+    after = env.world.goal_distance
+    assert set(rew) == set(env.agents) and len(set(rew.values())) == 1
+    assert rew["robot_0"] == pytest.approx(100.0 * (before - after), abs=1e-9)
+    assert not any(term.values()) and not any(trunc.values())
+    assert info["robot_0"]["tick"] == 2
+    with pytest.raises(ValueError, match="finite"):
+        env.step({"robot_0": np.array([np.nan, 0.0])})
+    with pytest.raises(ValueError, match=r"shape \(2,\)"):
+        env.step({"robot_0": np.zeros(3)})
+
+
+def test_same_seed_same_episode():
+    def episode():
+        env = fenv.parallel_env(robots=4, max_steps=30)
+        env.reset(seed=5)
+        rng = np.random.default_rng(0)
+        total = 0.0
+        while env.agents:
+            acts = {a: rng.uniform(-0.2, 0.2, 2).astype(np.float32) for a in env.agents}
+            _, rew, *_ = env.step(acts)
+            total += rew["robot_0"]
+        return total, env.state()
+
+    (r1, s1), (r2, s2) = episode(), episode()
+    assert r1 == r2 and np.array_equal(s1, s2)
+
+
+def test_the_gymnasium_wrapper():
+    from gymnasium.utils.env_checker import check_env
+
+    env = fenv.TransportGymEnv(robots=4, max_steps=20)
+    check_env(env, skip_render_check=True)
+    obs, info = env.reset(seed=3)
+    assert obs.shape == (4, 24) and env.action_space.shape == (4, 2)
+    obs, reward, terminated, truncated, info = env.step(np.zeros((4, 2), dtype=np.float32))
+    assert isinstance(reward, float) and not terminated and info["tick"] == 2
+    import gymnasium
+
+    assert isinstance(gymnasium.make("formica/Transport-v0", robots=3).unwrapped, fenv.TransportGymEnv)
+
+
+def test_the_vectorised_form_steps_many_worlds_and_autoresets():
+    venv = fenv.vector_env(num_envs=4, robots=5, max_steps=3)
+    obs, info = venv.reset(seed=100)
+    assert obs.shape == (4, 5, 24) and info["seed"].tolist() == [100, 101, 102, 103]
+    actions = np.zeros((4, 5, 2), dtype=np.float32)
+    for _ in range(2):
+        obs, rew, term, trunc, info = venv.step(actions)
+        assert rew.shape == (4,) and not trunc.any() and "final_obs" not in info
+    obs, rew, term, trunc, info = venv.step(actions)
+    assert trunc.all() and info["_final_obs"].all() and info["final_obs"][0].shape == (5, 24)
+    # Rebuilt at once with the next seeds, first tick done.
+    assert venv.worlds.seeds == [104, 105, 106, 107] and venv.worlds.ticks.tolist() == [1, 1, 1, 1]
+    with pytest.raises(ValueError, match=r"shape \(4, 5, 2\)"):
+        venv.step(np.zeros((4, 2)))
+
+
+def test_the_default_scenario_works_outside_the_repository(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    env = fenv.parallel_env(robots=3)
+    obs, _ = env.reset(seed=1)
+    assert len(obs) == 3 and env._task.scenario.name == "seed-transport"

@@ -1,0 +1,139 @@
+"""formica.World: numpy arrays with the documented shapes, dtypes and units."""
+
+import math
+
+import numpy as np
+import pytest
+
+import formica
+from conftest import SEED_TRANSPORT
+
+#: Khepera IV: 8 proximity and 8 light sensors, then x, y, theta, beacon_x, beacon_y,
+#: has_beacon, attached, time_s.
+L = 8 + 8 + 8
+
+
+def test_arrays_have_the_documented_shapes_and_dtypes():
+    w = formica.World(SEED_TRANSPORT, seed=3)
+    assert w.step(5) is None
+    n, m = len(w), 1
+    assert n == 20 and w.tick == 5 and math.isclose(w.time_s, 0.5)
+    for arr, shape, dtype in [
+        (w.robot_poses, (n, 3), np.float32),
+        (w.leds, (n,), np.uint8),
+        (w.released, (n,), np.bool_),
+        (w.attached, (n,), np.bool_),
+        (w.wheel_speeds, (n, 2), np.float32),
+        (w.object_poses, (m, 3), np.float32),
+        (w.object_centers, (m, 2), np.float32),
+        (w.readings(), (n, L), np.float32),
+        (w.robot_groups, (n,), np.int64),
+    ]:
+        assert arr.shape == shape and arr.dtype == dtype, (arr.shape, arr.dtype)
+    assert len(w.states) == n and all(isinstance(s, str) for s in w.states)
+    names = w.reading_names()
+    assert len(names) == L and names[:2] == ["proximity0", "proximity1"]
+    assert names[16:] == ["x", "y", "theta", "beacon_x", "beacon_y", "has_beacon", "attached", "time_s"]
+    assert w.reading_slots() == {
+        "proximity": (0, 8), "light": (8, 8), "x": (16, 1), "y": (17, 1), "theta": (18, 1),
+        "beacon_x": (19, 1), "beacon_y": (20, 1), "has_beacon": (21, 1), "attached": (22, 1), "time_s": (23, 1),
+    }
+
+
+def test_units_metres_radians_seconds():
+    w = formica.World(SEED_TRANSPORT, seed=3)
+    w.step(20)
+    poses, r = w.robot_poses, w.readings()
+    # Robots are inside the 6 m x 4 m arena, headings in (-pi, pi].
+    assert np.all(np.abs(poses[:, 0]) < 3.0) and np.all(np.abs(poses[:, 1]) < 2.0)
+    assert np.all(np.abs(poses[:, 2]) <= math.pi + 1e-6)
+    # Noise-free positioning reads the true pose; the beacon reads the object's centre.
+    np.testing.assert_allclose(r[:, 16:19], poses, atol=1e-6)
+    np.testing.assert_allclose(r[:, 19:21], np.repeat(w.object_centers, len(w), axis=0), atol=1e-6)
+    assert np.all(r[:, 21] == 1.0) and np.all(r[:, 23] == np.float32(w.time_s))
+    # Proximity and light readings lie in [0, 1].
+    assert np.all((r[:, :16] >= 0.0) & (r[:, :16] <= 1.0))
+    # The box starts at (-1, 0); the goal light is at (2.5, 0): 3.5 m away.
+    assert w.object_poses[0].tolist() == pytest.approx([-1.0, 0.0, 0.0], abs=0.05)
+    assert w.goal == (2.5, 0.0)
+    assert w.goal_distance == pytest.approx(3.5, abs=0.05)
+    assert formica.COLORS[w.leds[0]] in ("white", "blue", "red", "yellow")
+
+
+def test_wheel_speeds_are_metres_per_second():
+    sc = formica.load(SEED_TRANSPORT).set("robots.0.count", 1).set("robots.0.placement", {"poses": [[0.0, 1.0, 0.0]]})
+    w = formica.World(sc, controller="external")
+    w.set_actions(np.array([[0.1, 0.1]]))
+    w.step(20)  # 2 s at 0.1 m/s along +x, after a short acceleration
+    x, y, theta = w.robot_poses[0]
+    assert 0.17 < x <= 0.2 and abs(y - 1.0) < 1e-3 and abs(theta) < 1e-3
+    np.testing.assert_array_equal(w.wheel_speeds, np.float32([[0.1, 0.1]]))
+    # Turning on the spot: the wheels 0.1054 m apart at -+0.05 m/s turn at about 0.95 rad/s.
+    w.set_actions([[-0.05, 0.05]], leds=[formica.COLORS.index("red")])
+    w.step(10)
+    assert 0.7 < w.robot_poses[0, 2] < 1.0
+    assert formica.COLORS[w.leds[0]] == "red"
+
+
+def test_same_seed_same_world_and_a_readings_buffer():
+    a, b = formica.World(SEED_TRANSPORT, seed=5), formica.World(SEED_TRANSPORT, seed=5)
+    a.step(50)
+    b.step(50)
+    np.testing.assert_array_equal(a.robot_poses, b.robot_poses)
+    buf = np.empty((len(a), L), dtype=np.float32)
+    assert a.readings(out=buf) is None
+    np.testing.assert_array_equal(buf, b.readings())
+    with pytest.raises(ValueError, match="out: expected shape"):
+        a.readings(out=np.empty((3, L), dtype=np.float32))
+
+
+def test_stepping_to_the_end_gives_the_run_result():
+    sc = formica.load(SEED_TRANSPORT).set("robots.0.count", 6)
+    w = formica.World(sc, seed=2, duration=30)
+    result = w.run()
+    assert w.done and w.outcome == "timeout" and result["ticks"] == 300
+    assert w.step() == "timeout" and w.tick == 300
+    (ref,) = formica.run(sc, seeds=2, duration=30, as_frame=False)
+    result.pop("wall_time_s"), ref.pop("wall_time_s")
+    assert result == ref
+
+
+def test_bad_actions_are_value_errors():
+    w = formica.World(SEED_TRANSPORT, controller="external")
+    n = len(w)
+    with pytest.raises(ValueError, match=r"shape \(20, 2\)"):
+        w.set_actions(np.zeros((n, 3)))
+    with pytest.raises(ValueError, match="finite"):
+        w.set_actions(np.full((n, 2), np.nan))
+    with pytest.raises(ValueError, match="LED code 99"):
+        w.set_actions(np.zeros((n, 2)), leds=np.full(n, 99))
+    with pytest.raises(ValueError, match="attach"):
+        w.set_actions(np.zeros((n, 2)), attach=np.full(n, 5))
+    w.set_actions(np.zeros((n, 2)))
+    w.clear_actions()
+    assert w.step(2) is None
+
+
+def test_recorded_trajectories():
+    w = formica.World(SEED_TRANSPORT, seed=1, record=True)
+    w.step(10)
+    tr = w.trajectories()
+    assert tr["object"].shape == (11, 4) and tr["robots"].shape == (11 * 20, 5)
+    assert formica.World(SEED_TRANSPORT).trajectories() is None
+
+
+def test_many_worlds_in_one_call():
+    ws = formica.Worlds(SEED_TRANSPORT, seeds=[1, 2, 3], controller="external")
+    assert len(ws) == 3 and ws.robots == 20 and ws.seeds == [1, 2, 3]
+    codes = ws.step(np.full((3, 20, 2), 0.05, dtype=np.float32), 10)
+    assert codes.dtype == np.int8 and codes.tolist() == [0, 0, 0]
+    assert ws.readings().shape == (3, 20, L) and ws.robot_poses.shape == (3, 20, 3)
+    assert ws.object_poses.shape == (3, 1, 3) and ws.goal_distances.shape == (3,)
+    single = formica.World(SEED_TRANSPORT, seed=2, controller="external")
+    single.set_actions(np.full((20, 2), 0.05))
+    single.step(10)
+    np.testing.assert_array_equal(ws.robot_poses[1], single.robot_poses)
+    ws.reset(1, 9, ticks=1)
+    assert ws.seeds == [1, 9, 3] and ws.ticks.tolist() == [10, 1, 10]
+    with pytest.raises(ValueError, match=r"shape \(3, 20, 2\)"):
+        ws.step(np.zeros((2, 20, 2)))
