@@ -46,6 +46,9 @@ pub const METRICS: &[(&str, &str)] = &[
     ("convexity_before", "REAL"),
     ("convexity_after", "REAL"),
     ("cavity_filled", "REAL"),
+    ("cavity_capacity", "INTEGER"),
+    ("cavity_robots", "INTEGER"),
+    ("false_stops", "INTEGER"),
     ("wall_time_s", "REAL"),
 ];
 
@@ -408,6 +411,7 @@ impl Store {
             vals.push(sql_of(v));
         }
         let opt_f = |x: Option<f64>| x.map_or(SqlValue::Null, SqlValue::Real);
+        let opt_n = |x: Option<usize>| x.map_or(SqlValue::Null, |n| SqlValue::Integer(n as i64));
         let metrics = [
             SqlValue::Text(r.scenario.clone()),
             SqlValue::Text(r.controller.clone()),
@@ -424,6 +428,9 @@ impl Store {
             opt_f(r.convexity_before),
             opt_f(r.convexity_after),
             opt_f(r.cavity_filled),
+            opt_n(r.cavity_capacity),
+            opt_n(r.cavity_robots),
+            opt_n(r.false_stops),
             SqlValue::Real(r.wall_time_s),
         ];
         for ((name, _), v) in METRICS.iter().zip(metrics) {
@@ -553,7 +560,10 @@ impl Store {
                         convexity_before: r.get(14)?,
                         convexity_after: r.get(15)?,
                         cavity_filled: r.get(16)?,
-                        wall_time_s: r.get(17)?,
+                        cavity_capacity: r.get::<_, Option<i64>>(17)?.map(|n| n as usize),
+                        cavity_robots: r.get::<_, Option<i64>>(18)?.map(|n| n as usize),
+                        false_stops: r.get::<_, Option<i64>>(19)?.map(|n| n as usize),
+                        wall_time_s: r.get(20)?,
                         extra,
                     },
                 })

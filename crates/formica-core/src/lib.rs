@@ -24,6 +24,7 @@ pub mod controllers;
 pub mod experiment;
 pub mod geometry;
 pub mod metrics;
+pub mod noise;
 pub mod ops;
 pub mod physics;
 pub mod registry;
