@@ -39,7 +39,7 @@ mod cmd_sweep;
 mod gallery;
 mod output;
 mod plots;
-mod provenance;
+pub mod provenance;
 mod replay;
 mod stats;
 mod store;
