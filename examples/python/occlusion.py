@@ -31,26 +31,45 @@ def wrap(a: float) -> float:
     return (a + PI) % (2 * PI) - PI
 
 
+NOISE_FLOOR = 0.03  # proximity readings at or below this are nothing (as Rust)
+
+
+def light_contrast(light):
+    """Strongest reading minus the mean of the weaker half of the ring (as Rust)."""
+    if not light:
+        return 0.0
+    srt = sorted(light)
+    half = max(len(srt) // 2, 1)
+    return srt[-1] - sum(srt[:half]) / half
+
+
 def light_bearing(light, angles):
-    """Bearing of a light from the sensors' readings, inverting the spread law (as Rust)."""
+    """Bearing of a light: the vertex of the parabola through the strongest sensor and its two
+    neighbours, readings less the ring's background (as Rust; no spread law assumed)."""
     n = min(len(light), len(angles))
     if n == 0:
         return None
     i = max(range(n), key=lambda k: light[k])
     ri = light[i]
-    if ri <= 0.0:
+    background = ri - light_contrast(light[:n])
+    if ri - background <= 0.0:
         return None
-    if n < 2:
+    if n < 3:
         return angles[i]
-    prev, nxt = (i + n - 1) % n, (i + 1) % n
-    j = nxt if light[nxt] >= light[prev] else prev
-    rj = light[j]
-    span = wrap(angles[j] - angles[i])
-    gap = abs(span)
-    v = (ri + rj) / max(2.0 - 2.0 * gap / PI, 1e-3)
-    diff = min(max((ri - rj) * PI / (2.0 * v), 0.0), gap)
-    d_i = (gap - diff) / 2.0
-    return wrap(angles[i] + math.copysign(1.0, span) * d_i)
+    p, q = (i + n - 1) % n, (i + 1) % n
+    y0 = ri - background
+    ym = max(light[p] - background, 0.0)
+    yp = max(light[q] - background, 0.0)
+    xm = wrap(angles[p] - angles[i])
+    xp = wrap(angles[q] - angles[i])
+    den = xm * xp * (xm - xp)
+    if abs(den) < 1e-9:
+        return angles[i]
+    a = (xp * (ym - y0) - xm * (yp - y0)) / den
+    b = (xm * xm * (yp - y0) - xp * xp * (ym - y0)) / den
+    offset = -b / (2.0 * a) if a < 0.0 else 0.0
+    offset = min(max(offset, min(xm, xp) / 2.0), max(xm, xp) / 2.0)
+    return wrap(angles[i] + offset)
 
 
 class GoalFix:
@@ -142,6 +161,8 @@ class Occlusion:
         self.last_s = 0.0
         self.hidden_since = None
         self.visible_since = None
+        self.goal_lit = False  # the goal counts as visible (hysteresis, as Rust)
+        self.smooth = None  # smoothed own position, for the progress watch
         self.anchor = (0.0, 0.0)
         self.anchor_s = math.nan
         self.side = 1.0
@@ -164,10 +185,11 @@ class Occlusion:
         if s != self.state:
             self.state = s
             self.since_s = t
-            self.anchor = (x, y)
+            self.anchor = self.smooth or (x, y)
             self.anchor_s = t
 
     def stuck(self, t, x, y, limit):
+        x, y = self.smooth or (x, y)
         ax, ay = self.anchor
         if math.isnan(self.anchor_s) or math.hypot(x - ax, y - ay) >= self.stuck_dist:
             self.anchor = (x, y)
@@ -191,7 +213,7 @@ class Occlusion:
         best = 0.0
         otx = oty = 0.0
         for v, a in zip(prox, self.prox_angles):
-            if v <= 0.0:
+            if v <= NOISE_FLOOR:
                 continue
             dx, dy = math.cos(a) * v, math.sin(a) * v
             if near and abs(wrap(a - cb)) <= HALF_PI + 0.1:
@@ -210,7 +232,9 @@ class Occlusion:
         return surface, (otx, oty)
 
     def goal_hidden(self, light, t, x, y, theta, obj):
-        dark = len(light) > 0 and all(v <= 0.0 for v in light)
+        contrast = light_contrast(light)
+        self.goal_lit = contrast >= 0.06 if self.goal_lit else contrast > 0.1
+        dark = len(light) > 0 and not self.goal_lit
         if not dark:
             b = light_bearing(light, self.light_angles)
             if b is not None:
@@ -273,6 +297,14 @@ class Occlusion:
     def step(self, r):
         x, y, theta = r.pose
         t = r.time_s
+        # Positions are noisy: the progress watch uses a smoothed one (as Rust).
+        if self.smooth is not None and math.hypot(x - self.smooth[0], y - self.smooth[1]) < 0.2:
+            self.smooth = (
+                self.smooth[0] + 0.2 * (x - self.smooth[0]),
+                self.smooth[1] + 0.2 * (y - self.smooth[1]),
+            )
+        else:
+            self.smooth = (x, y)
         prox = r.proximity
         beacon = r.beacon
         centre = None

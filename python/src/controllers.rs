@@ -1005,6 +1005,7 @@ fn external_factory(
         light: true,
         beacon: true,
         camera: false,
+        scan: false,
     };
     for (k, v) in params.into_iter().flatten() {
         let Some(b) = v.as_bool() else {
@@ -1015,9 +1016,10 @@ fn external_factory(
             "light" => needs.light = b,
             "beacon" => needs.beacon = b,
             "camera" => needs.camera = b,
+            "scan" => needs.scan = b,
             other => {
                 return Err(format!(
-                    "unknown parameter `{other}`, expected proximity, light, beacon or camera"
+                    "unknown parameter `{other}`, expected proximity, light, beacon, camera or scan"
                 ))
             }
         }

@@ -80,9 +80,13 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let n = w.robots.iter().filter(|r| r.group == g).count();
         let needs = grp.needs();
         outln!(
-            "  robots[{g}]: {n} x {}, controller {}, sensors: proximity={} light={} beacon={} camera={}",
-            grp.model_name, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera
+            "  robots[{g}]: {n} x {}, controller {}, sensors: proximity={} light={} beacon={} camera={} scan={}, noise {}",
+            grp.model_name, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera,
+            needs.scan, grp.sensors.preset.name()
         );
+        if let Some(warning) = formica::world::sensor_warning(grp) {
+            outln!("    warning: {warning}");
+        }
         if let Some(warning) = reach_warning(&sc, w, g) {
             outln!("    warning: {warning}");
         }

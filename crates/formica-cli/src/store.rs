@@ -46,6 +46,9 @@ pub const METRICS: &[(&str, &str)] = &[
     ("convexity_before", "REAL"),
     ("convexity_after", "REAL"),
     ("cavity_filled", "REAL"),
+    ("cavity_capacity", "INTEGER"),
+    ("cavity_robots", "INTEGER"),
+    ("false_stops", "INTEGER"),
     ("wall_time_s", "REAL"),
 ];
 
@@ -408,6 +411,7 @@ impl Store {
             vals.push(sql_of(v));
         }
         let opt_f = |x: Option<f64>| x.map_or(SqlValue::Null, SqlValue::Real);
+        let opt_n = |x: Option<usize>| x.map_or(SqlValue::Null, |n| SqlValue::Integer(n as i64));
         let metrics = [
             SqlValue::Text(r.scenario.clone()),
             SqlValue::Text(r.controller.clone()),
@@ -424,6 +428,9 @@ impl Store {
             opt_f(r.convexity_before),
             opt_f(r.convexity_after),
             opt_f(r.cavity_filled),
+            opt_n(r.cavity_capacity),
+            opt_n(r.cavity_robots),
+            opt_n(r.false_stops),
             SqlValue::Real(r.wall_time_s),
         ];
         for ((name, _), v) in METRICS.iter().zip(metrics) {
@@ -509,15 +516,23 @@ impl Store {
                 sel.join(", ")
             ))
             .context("reading trials")?;
+        // Column positions by name: the selection is HEAD, METRICS, PROVENANCE, then extras.
+        let names: Vec<&str> = HEAD
+            .iter()
+            .chain(METRICS.iter().map(|(n, _)| n))
+            .chain(PROVENANCE)
+            .copied()
+            .collect();
+        let at = |name: &str| names.iter().position(|n| *n == name).unwrap_or(usize::MAX);
         let rows = st
             .query_map(args, |r| {
-                let outcome: String = r.get(6)?;
+                let outcome: String = r.get(at("outcome"))?;
                 let outcome = match outcome.as_str() {
                     "success" => Outcome::Success,
                     "wall" => Outcome::Wall,
                     _ => Outcome::Timeout,
                 };
-                let params: String = r.get(1)?;
+                let params: String = r.get(at("params"))?;
                 let text = |i: usize| -> rusqlite::Result<String> {
                     Ok(r.get::<_, Option<String>>(i)?.unwrap_or_default())
                 };
@@ -528,32 +543,43 @@ impl Store {
                     }
                 }
                 Ok(StoredTrial {
-                    trial: r.get::<_, i64>(0)? as usize,
+                    trial: r.get::<_, i64>(at("trial"))? as usize,
                     provenance: Provenance {
-                        formica_version: text(18)?,
-                        git_commit: text(19)?,
-                        scenario_sha256: text(20)?,
-                        platform: text(21)?,
+                        formica_version: text(at("formica_version"))?,
+                        git_commit: text(at("git_commit"))?,
+                        scenario_sha256: text(at("scenario_sha256"))?,
+                        platform: text(at("platform"))?,
                     },
                     params: serde_json::from_str(&params).unwrap_or_default(),
                     params_json: params,
                     result: RunResult {
-                        scenario: r.get(3)?,
-                        seed: r.get::<_, i64>(2)? as u64,
+                        scenario: r.get(at("scenario_name"))?,
+                        seed: r.get::<_, i64>(at("seed"))? as u64,
                         outcome,
-                        sim_time_s: r.get(7)?,
-                        ticks: r.get::<_, i64>(8)? as u64,
-                        robots: r.get::<_, i64>(5)? as usize,
-                        controller: r.get(4)?,
-                        goal_distance_m: r.get(9)?,
-                        object_path_m: r.get(10)?,
-                        path_efficiency: r.get(11)?,
-                        object_robots: r.get::<_, Option<i64>>(12)?.map(|n| n as usize),
-                        fill_time_s: r.get(13)?,
-                        convexity_before: r.get(14)?,
-                        convexity_after: r.get(15)?,
-                        cavity_filled: r.get(16)?,
-                        wall_time_s: r.get(17)?,
+                        sim_time_s: r.get(at("sim_time_s"))?,
+                        ticks: r.get::<_, i64>(at("ticks"))? as u64,
+                        robots: r.get::<_, i64>(at("robots"))? as usize,
+                        controller: r.get(at("controller"))?,
+                        goal_distance_m: r.get(at("goal_distance_m"))?,
+                        object_path_m: r.get(at("object_path_m"))?,
+                        path_efficiency: r.get(at("path_efficiency"))?,
+                        object_robots: r
+                            .get::<_, Option<i64>>(at("object_robots"))?
+                            .map(|n| n as usize),
+                        fill_time_s: r.get(at("fill_time_s"))?,
+                        convexity_before: r.get(at("convexity_before"))?,
+                        convexity_after: r.get(at("convexity_after"))?,
+                        cavity_filled: r.get(at("cavity_filled"))?,
+                        cavity_capacity: r
+                            .get::<_, Option<i64>>(at("cavity_capacity"))?
+                            .map(|n| n as usize),
+                        cavity_robots: r
+                            .get::<_, Option<i64>>(at("cavity_robots"))?
+                            .map(|n| n as usize),
+                        false_stops: r
+                            .get::<_, Option<i64>>(at("false_stops"))?
+                            .map(|n| n as usize),
+                        wall_time_s: r.get(at("wall_time_s"))?,
                         extra,
                     },
                 })

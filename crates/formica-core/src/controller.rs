@@ -326,7 +326,10 @@ mod tests {
 
     #[test]
     fn flat_readings_have_a_fixed_layout() {
-        let layout = SensorLayout::of(&RobotModel::khepera4());
+        let layout = SensorLayout::of(
+            &RobotModel::khepera4(),
+            &crate::scenario::SensorConfig::default(),
+        );
         let flat = FlatReadings::of(&layout);
         assert_eq!(flat.len(), 8 + 8 + 8);
         let names = flat.names();
@@ -365,6 +368,8 @@ mod tests {
             pose: Pose::new(1.0, -1.0, 0.25),
             beacon: Some(Vec2::new(3.0, 4.0)),
             blobs: Vec::new(),
+            scan_color: Vec::new(),
+            scan_range: Vec::new(),
             attached: true,
         };
         let mut out = vec![9.0; flat.len()];

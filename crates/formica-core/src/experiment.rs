@@ -111,6 +111,15 @@ pub struct RunResult {
     /// Fraction of the area between the object and its hull covered by attached robots.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cavity_filled: Option<f64>,
+    /// Robot discs that fit in the cavity (the region between the object and its hull).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cavity_capacity: Option<usize>,
+    /// Attached robots whose centre lies in the cavity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cavity_robots: Option<usize>,
+    /// Attached robots outside the object's hull (their centre beyond it by over half a radius).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub false_stops: Option<usize>,
     /// Wall-clock seconds the run took (the only field that is not deterministic).
     pub wall_time_s: f64,
     /// End-of-run fields added by loop functions, flattened into the JSON line (after the
@@ -141,6 +150,9 @@ impl RunResult {
         "convexity_before",
         "convexity_after",
         "cavity_filled",
+        "cavity_capacity",
+        "cavity_robots",
+        "false_stops",
         "wall_time_s",
         "formica_version",
         "git_commit",

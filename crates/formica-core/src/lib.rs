@@ -25,6 +25,7 @@ pub mod experiment;
 pub mod geometry;
 pub mod limits;
 pub mod metrics;
+pub mod noise;
 pub mod ops;
 pub mod physics;
 pub mod registry;

@@ -1,9 +1,13 @@
 //! Filling metrics: robots attached to the object, fill time, convexity of the pseudo object
-//! (object plus attached robots) and how much of the cavity they cover; and the `on_filled`
-//! stop rule.
+//! (object plus attached robots), how much of the cavity they cover, how many robot discs fit
+//! in the cavity and how many attached robots are in it or outside the object's hull; and the
+//! `on_filled` stop rule.
 //!
-//! Areas are measured by sampling a 5 mm grid over the convex hull's bounding box, which is
-//! exact to well under 1 % for the seed's shapes and robots.
+//! The **cavity** is the region between the object and its own convex hull. Areas are measured
+//! by sampling a grid over the hull's bounding box: 5 mm, exact to well under 1 % for the seed's
+//! shapes and robots, coarser for large objects so that no measurement takes more than about
+//! [`MAX_AREA_SAMPLES`] samples. [`cavity_capacity`] packs robot discs into the cavity (see
+//! there).
 
 use crate::experiment::{LoopFunctions, Outcome, RunResult};
 use crate::geometry::{convex_hull, Vec2};
@@ -12,8 +16,15 @@ use crate::scenario::Scenario;
 use crate::world::World;
 use rapier2d::parry::utils::point_in_convex_poly2d;
 
-/// Grid step of the area sampling (m).
+/// Finest grid step of the area sampling (m).
 pub const AREA_STEP_M: f32 = 0.005;
+
+/// Most grid samples one area measurement takes (the step grows for large objects).
+pub const MAX_AREA_SAMPLES: f32 = 250_000.0;
+
+/// Most lattice points one packing trial of [`cavity_capacity`] examines (the number of trials
+/// shrinks for large objects).
+pub const MAX_PACKING_POINTS: usize = 400_000;
 
 /// Areas of the pseudo object (object + attached robots).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,7 +88,8 @@ pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas
         hi = hi.max(*p);
     }
     let body = world.objects[obj].body;
-    let step = AREA_STEP_M;
+    let extent = (hi - lo).max(Vec2::splat(1e-3));
+    let step = AREA_STEP_M.max((extent.x * extent.y / MAX_AREA_SAMPLES).sqrt());
     let cell = f64::from(step) * f64::from(step);
     let nx = ((hi.x - lo.x) / step).ceil() as usize;
     let ny = ((hi.y - lo.y) / step).ceil() as usize;
@@ -115,21 +127,218 @@ pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas
     a
 }
 
+/// The object's convex hull in the world frame (counter-clockwise).
+pub fn object_hull(world: &World, obj: usize) -> Vec<Vec2> {
+    let pts: Vec<Vec2> = world.object_outlines(obj).into_iter().flatten().collect();
+    convex_hull(&pts)
+}
+
+/// Signed distance from `p` to the inside of the convex polygon `hull` (counter-clockwise):
+/// positive inside (the distance to the nearest edge line), negative outside.
+fn inside_depth(hull: &[Vec2], p: Vec2) -> f32 {
+    let n = hull.len();
+    if n < 3 {
+        return f32::NEG_INFINITY;
+    }
+    let mut depth = f32::INFINITY;
+    for i in 0..n {
+        let (a, b) = (hull[i], hull[(i + 1) % n]);
+        let e = b - a;
+        let len = e.length();
+        if len < 1e-9 {
+            continue;
+        }
+        // Left of a counter-clockwise edge is inside.
+        let d = (e.x * (p.y - a.y) - e.y * (p.x - a.x)) / len;
+        depth = depth.min(d);
+    }
+    depth
+}
+
+/// Whether a point lies in the cavity of object `obj` (inside its hull, outside the object).
+fn in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2) -> bool {
+    inside_depth(hull, p) >= 0.0 && !world.physics.contains(world.objects[obj].body, p)
+}
+
+/// How many robot discs of `radius` fit in the cavity of object `obj`: discs inside the
+/// object's hull, overlapping neither the object nor each other. Computed by lattice packing
+/// ([`pack_discs`]): hexagonal and square lattices of spacing `2 radius`, laid at 12 rotations
+/// and 16 offsets, and laid along every edge of the object and its hull with the first row
+/// touching that edge; the best count is kept. A lower bound of the best packing (the tests
+/// check it on cavities counted by hand); a cavity narrower than a robot has capacity 0.
+pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
+    let hull = object_hull(world, obj);
+    let body = world.objects[obj].body;
+    let fits = |p: Vec2| {
+        if inside_depth(&hull, p) < radius {
+            return false;
+        }
+        // `nearest_point` does not tell inside from outside for compound shapes.
+        if world.physics.contains(body, p) {
+            return false;
+        }
+        let (q, _) = world.physics.nearest_point(body, p);
+        (q - p).length() >= radius
+    };
+    let mut edges: Vec<(Vec2, Vec2)> = Vec::new();
+    for ring in world
+        .object_outlines(obj)
+        .iter()
+        .chain(std::iter::once(&hull))
+    {
+        for i in 0..ring.len() {
+            edges.push((ring[i], ring[(i + 1) % ring.len()]));
+        }
+    }
+    pack_discs(&hull, radius, &edges, fits)
+}
+
+/// Lattice packing of discs of `radius` into the convex region `hull`, where `fits` says
+/// whether a disc centred at a point is allowed: the best of lattices at general rotations and
+/// offsets and of lattices whose rows run along one of `edges`, the first row `radius` from it.
+/// Bounded cost: trials thin out so that no more than about [`MAX_PACKING_POINTS`] lattice
+/// points are examined per kind of trial.
+pub fn pack_discs(
+    hull: &[Vec2],
+    radius: f32,
+    edges: &[(Vec2, Vec2)],
+    fits: impl Fn(Vec2) -> bool,
+) -> usize {
+    if hull.len() < 3 || !(radius > 0.0) {
+        return 0;
+    }
+    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+    for p in hull {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let centre = (lo + hi) * 0.5;
+    let half_diag = (hi - lo).length() * 0.5 + 2.0 * radius;
+    let d = 2.0 * radius * (1.0 + 1e-4);
+    let per_axis = (2.0 * half_diag / d).ceil() as i64 + 1;
+    let points = (per_axis * per_axis) as usize;
+    // 2 lattices x 12 rotations x 16 offsets; fewer if the lattice is large.
+    let trials = (MAX_PACKING_POINTS * 384 / points.max(1)).clamp(2, 384);
+    let (rotations, offsets) = if trials >= 384 {
+        (12, 4)
+    } else if trials >= 96 {
+        (6, 2)
+    } else {
+        (1, 1)
+    };
+    let count = |hex: bool, t: f32, o: Vec2| {
+        let (skew, row) = if hex {
+            (0.5 * d, d * 0.866_025_4)
+        } else {
+            (0.0, d)
+        };
+        let (u, v) = (ops::unit(t), ops::unit(t + std::f32::consts::FRAC_PI_2));
+        // Lattice rows through `o`, covering the hull's bounding circle.
+        let shift_o = o - centre;
+        let (j0, i0) = (
+            (shift_o.dot(v) / row).round() as i64,
+            (shift_o.dot(u) / d).round() as i64,
+        );
+        let mut n = 0;
+        for j in -per_axis / 2 - 1..=per_axis / 2 + 1 {
+            let shift = if j.rem_euclid(2) == 1 { skew } else { 0.0 };
+            for i in -per_axis / 2 - 1..=per_axis / 2 + 1 {
+                let p = o + u * (d * (i - i0) as f32 + shift) + v * (row * (j - j0) as f32);
+                if (p - centre).length() <= half_diag && fits(p) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    };
+    let mut best = 0;
+    for hex in [true, false] {
+        let sector = if hex {
+            std::f32::consts::FRAC_PI_3
+        } else {
+            std::f32::consts::FRAC_PI_2
+        };
+        let row = if hex { d * 0.866_025_4 } else { d };
+        for k in 0..rotations {
+            let t = sector * k as f32 / rotations as f32;
+            let (u, v) = (ops::unit(t), ops::unit(t + std::f32::consts::FRAC_PI_2));
+            for ox in 0..offsets {
+                for oy in 0..offsets {
+                    let o = centre
+                        + u * (d * ox as f32 / offsets as f32)
+                        + v * (row * oy as f32 / offsets as f32);
+                    best = best.max(count(hex, t, o));
+                }
+            }
+        }
+        // Rows along an edge, the first `radius` inside it (either side), slid along it.
+        let along = if trials >= 96 { 16 } else { 2 };
+        for &(a, b) in edges.iter().take(if trials >= 96 { 64 } else { 4 }) {
+            let e = b - a;
+            if e.length() < 1e-6 {
+                continue;
+            }
+            let t = ops::angle_of(e);
+            let (u, v) = (ops::unit(t), ops::unit(t + std::f32::consts::FRAC_PI_2));
+            for side in [1.0f32, -1.0] {
+                for k in 0..along {
+                    let o = a + v * (side * radius) + u * (d * k as f32 / along as f32);
+                    best = best.max(count(hex, t, o));
+                }
+            }
+        }
+    }
+    best
+}
+
+/// Attached robots of object `obj` whose centres lie in its cavity, and those outside its hull
+/// (false stops): more than half outside, their centre beyond the hull by more than half their
+/// radius. A robot touching the outside of the hull (the seed's false stop against a U's back
+/// wall) is one; a robot astride the mouth of a cavity, its centre just past the hull's edge,
+/// is neither.
+pub fn classify_attached(world: &World, obj: usize) -> (usize, usize) {
+    let hull = object_hull(world, obj);
+    let (mut inside, mut outside) = (0, 0);
+    for (c, r) in attached_discs(world, obj) {
+        if in_cavity(world, obj, &hull, c) {
+            inside += 1;
+        } else if inside_depth(&hull, c) < -0.5 * r {
+            outside += 1;
+        }
+    }
+    (inside, outside)
+}
+
 /// Filling metrics and the `on_filled` stop rule.
 pub struct FillHooks {
     on_filled: Option<f32>,
     before: Option<f64>,
     concave: bool,
+    /// Robot discs that fit in the cavity at the start (the object is rigid: it stays so).
+    capacity: Option<usize>,
 }
 
 impl FillHooks {
     /// Hooks for a world built from `sc`; measures the object's convexity at the start.
     pub fn new(sc: &Scenario, world: &World) -> Self {
         let before = world.target.map(|t| fill_areas(world, t, &[]).convexity());
+        let concave = before.is_some_and(|c| c < 0.995);
+        // The smallest robot of the scenario: its discs fit best.
+        let radius = world
+            .groups
+            .iter()
+            .map(|g| g.model.radius)
+            .fold(f32::INFINITY, f32::min);
+        let capacity = match world.target {
+            Some(t) if concave && radius.is_finite() => Some(cavity_capacity(world, t, radius)),
+            Some(_) => Some(0),
+            None => None,
+        };
         Self {
             on_filled: sc.spec.stop.on_filled,
             before,
-            concave: before.is_some_and(|c| c < 0.995),
+            concave,
+            capacity,
         }
     }
 
@@ -171,5 +380,9 @@ impl LoopFunctions for FillHooks {
         r.convexity_before = self.before;
         r.convexity_after = Some(after.convexity());
         r.cavity_filled = Some(after.cavity_filled());
+        let (inside, outside) = classify_attached(world, t);
+        r.cavity_capacity = self.capacity;
+        r.cavity_robots = Some(inside);
+        r.false_stops = Some(outside);
     }
 }

@@ -111,8 +111,10 @@ pub struct RobotModel {
     pub light_height: f32,
     /// A light's reading spreads over the nearest sensor and this many neighbours each side.
     pub light_spread: usize,
-    /// Height of the colour-blob camera (m).
+    /// Height of the colour-blob camera and colour scan (m).
     pub camera_height: f32,
+    /// Height of the LEDs that cameras see (m).
+    pub led_height: f32,
 }
 
 fn ring(n: usize, first_deg: f32) -> Vec<f32> {
@@ -178,6 +180,8 @@ impl RobotModel {
             light_height: 0.0145,
             light_spread: 1,
             camera_height: 0.06,
+            // Three RGB LEDs on the top plate.
+            led_height: 0.053,
         }
     }
 
@@ -204,6 +208,8 @@ impl RobotModel {
             light_height: 0.06,
             light_spread: 6,
             camera_height: 0.14,
+            // The LED ring round the body.
+            led_height: 0.12,
         }
     }
 
@@ -229,6 +235,7 @@ impl RobotModel {
             light_height: 0.03,
             light_spread: 1,
             camera_height: 0.05,
+            led_height: 0.045,
         }
     }
 

@@ -6,7 +6,9 @@
 
 use crate::geometry::{Part, Primitive};
 use crate::limits;
+use crate::noise::{self, NoiseModel, NoisePreset};
 use crate::registry::Registry;
+use crate::robot::ModelKind;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::Range;
@@ -60,8 +62,10 @@ pub enum Color {
     Orange,
     /// White.
     White,
-    /// Grey (walls).
+    /// Grey (walls, as the colour scan sees them).
     Grey,
+    /// Black (a robot's body with its LEDs off, as the colour scan sees it).
+    Black,
 }
 
 impl Color {
@@ -78,6 +82,7 @@ impl Color {
             Color::Orange => [240, 140, 30],
             Color::White => [245, 245, 245],
             Color::Grey => [128, 128, 128],
+            Color::Black => [20, 20, 20],
         }
     }
     /// Lower-case name.
@@ -93,6 +98,7 @@ impl Color {
             Color::Orange => "orange",
             Color::White => "white",
             Color::Grey => "grey",
+            Color::Black => "black",
         }
     }
 }
@@ -328,44 +334,196 @@ pub struct Release {
     pub start_s: f32,
 }
 
-/// Sensor options of a robot group.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// What the colour-blob camera returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum CameraKind {
+    /// As ARGoS's colour-blob camera: lit LEDs in range and in line of sight, with bearing and
+    /// a noisy distance; no object bodies, no identity.
+    #[default]
+    Blob,
+    /// An ablation, never a default: also every coloured body (objects) with the exact
+    /// distance to its nearest surface point. `formica check` warns about it.
+    Oracle,
+}
+
+impl CameraKind {
+    /// Lower-case name, as in scenario files.
+    pub fn name(self) -> &'static str {
+        match self {
+            CameraKind::Blob => "blob",
+            CameraKind::Oracle => "oracle",
+        }
+    }
+}
+
+/// Sensor options of a robot group. `noise` picks a preset (default `"realistic"`, see
+/// [`crate::noise`]); every noise key set here overrides the preset's value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct SensorOptions {
-    /// Standard deviation of Gaussian noise on proximity readings.
+    /// Noise preset: `"realistic"` (default) or `"none"`.
     #[serde(default)]
-    pub proximity_noise: f32,
-    /// Standard deviation of Gaussian noise on light readings.
+    pub noise: NoisePreset,
+    /// Proximity: relative spread (fraction of the reading).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub proximity_noise: Option<f32>,
+    /// Proximity: additive spread (reading units).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub proximity_floor: Option<f32>,
+    /// Light: relative spread (fraction of the reading).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_noise: Option<f32>,
+    /// Light: additive spread (reading units).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_floor: Option<f32>,
+    /// Ambient light added to every light sensor (reading units, below 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ambient_light: Option<f32>,
+    /// Positioning: spread per coordinate (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_noise: Option<f32>,
+    /// Positioning: heading spread (rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heading_noise: Option<f32>,
+    /// Object beacon: spread per coordinate (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beacon_noise: Option<f32>,
+    /// Object beacon: largest distance (m) at which the robot gets it (default: any).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beacon_range: Option<f32>,
+    /// What the colour-blob camera returns: `"blob"` (default) or `"oracle"` (ablation).
     #[serde(default)]
-    pub light_noise: f32,
-    /// Standard deviation of position noise (m), for positioning and the beacon.
-    #[serde(default)]
-    pub position_noise: f32,
-    /// Standard deviation of heading noise (rad).
-    #[serde(default)]
-    pub heading_noise: f32,
-    /// Standard deviation of camera distance noise (relative) and bearing noise (rad).
-    #[serde(default)]
-    pub camera_noise: f32,
-    /// Range of the colour-blob camera (m).
-    #[serde(default = "default_camera_range")]
+    pub camera: CameraKind,
+    /// Blob camera: bearing spread (rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_noise: Option<f32>,
+    /// Blob camera: relative distance spread.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_distance_noise: Option<f32>,
+    /// Range of the colour-blob camera (m). Default 1.5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_range: Option<f32>,
+    /// Colour scan: number of bearing bins round the robot. Default 36.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_bins: Option<u32>,
+    /// Colour scan: range (m). Default 1.0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_range: Option<f32>,
+    /// Colour scan: ranges are rounded to multiples of this (m). Default 0.02.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_step: Option<f32>,
+    /// Colour scan: relative range spread.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_noise: Option<f32>,
+}
+
+/// A group's sensor settings, resolved: the preset with the file's overrides applied.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorConfig {
+    /// Noise levels.
+    pub noise: NoiseModel,
+    /// The preset they started from.
+    pub preset: NoisePreset,
+    /// Blob camera kind.
+    pub camera: CameraKind,
+    /// Blob camera range (m).
     pub camera_range: f32,
+    /// Beacon range (m; infinite: any).
+    pub beacon_range: f32,
+    /// Colour scan bins.
+    pub scan_bins: usize,
+    /// Colour scan range (m).
+    pub scan_range: f32,
+    /// Colour scan range resolution (m).
+    pub scan_step: f32,
 }
 
-fn default_camera_range() -> f32 {
-    1.5
-}
-
-impl Default for SensorOptions {
+impl Default for SensorConfig {
     fn default() -> Self {
-        Self {
-            proximity_noise: 0.0,
-            light_noise: 0.0,
-            position_noise: 0.0,
-            heading_noise: 0.0,
-            camera_noise: 0.0,
-            camera_range: default_camera_range(),
+        SensorOptions {
+            noise: NoisePreset::None,
+            ..SensorOptions::default()
         }
+        .resolve(ModelKind::Khepera4)
+    }
+}
+
+impl SensorOptions {
+    /// The preset for `kind` with this file's overrides applied.
+    pub fn resolve(&self, kind: ModelKind) -> SensorConfig {
+        let mut n = noise::preset(kind, self.noise);
+        let set = |slot: &mut f32, v: Option<f32>| {
+            if let Some(v) = v {
+                *slot = v;
+            }
+        };
+        set(&mut n.proximity_noise, self.proximity_noise);
+        set(&mut n.proximity_floor, self.proximity_floor);
+        set(&mut n.light_noise, self.light_noise);
+        set(&mut n.light_floor, self.light_floor);
+        set(&mut n.ambient_light, self.ambient_light);
+        set(&mut n.position_noise, self.position_noise);
+        set(&mut n.heading_noise, self.heading_noise);
+        set(&mut n.beacon_noise, self.beacon_noise);
+        set(&mut n.camera_noise, self.camera_noise);
+        set(&mut n.camera_distance_noise, self.camera_distance_noise);
+        set(&mut n.scan_noise, self.scan_noise);
+        SensorConfig {
+            noise: n,
+            preset: self.noise,
+            camera: self.camera,
+            camera_range: self.camera_range.unwrap_or(1.5),
+            beacon_range: self.beacon_range.unwrap_or(f32::INFINITY),
+            scan_bins: self.scan_bins.unwrap_or(36) as usize,
+            scan_range: self.scan_range.unwrap_or(1.0),
+            scan_step: self.scan_step.unwrap_or(0.02),
+        }
+    }
+
+    /// Rejects negative spreads, an ambient level of 1 or more and empty ranges.
+    pub fn validate(&self) -> Result<(), String> {
+        let spreads = [
+            ("proximity_noise", self.proximity_noise),
+            ("proximity_floor", self.proximity_floor),
+            ("light_noise", self.light_noise),
+            ("light_floor", self.light_floor),
+            ("ambient_light", self.ambient_light),
+            ("position_noise", self.position_noise),
+            ("heading_noise", self.heading_noise),
+            ("beacon_noise", self.beacon_noise),
+            ("camera_noise", self.camera_noise),
+            ("camera_distance_noise", self.camera_distance_noise),
+            ("scan_noise", self.scan_noise),
+            ("scan_step", self.scan_step),
+        ];
+        for (k, v) in spreads {
+            if let Some(v) = v {
+                if !(v >= 0.0) {
+                    return Err(format!("sensors.{k}: expected a number >= 0, got {v}"));
+                }
+            }
+        }
+        if self.ambient_light.is_some_and(|a| a >= 1.0) {
+            return Err("sensors.ambient_light: expected a level below 1".into());
+        }
+        for (k, v) in [
+            ("camera_range", self.camera_range),
+            ("scan_range", self.scan_range),
+            ("beacon_range", self.beacon_range),
+        ] {
+            if let Some(v) = v {
+                if !(v > 0.0) {
+                    return Err(format!("sensors.{k}: expected a positive range, got {v}"));
+                }
+            }
+        }
+        if let Some(b) = self.scan_bins {
+            if !(4..=360).contains(&b) {
+                return Err(format!("sensors.scan_bins: expected 4 to 360, got {b}"));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -390,7 +548,7 @@ pub struct RobotGroup {
     /// Release schedule.
     #[serde(default)]
     pub release: Release,
-    /// Sensor noise and ranges.
+    /// Sensor noise and ranges (default: the `"realistic"` noise preset).
     #[serde(default)]
     pub sensors: SensorOptions,
 }
@@ -1071,6 +1229,9 @@ impl Scenario {
                         ));
                     }
                 }
+            }
+            if let Err(m) = gr.sensors.validate() {
+                return Err(self.error_at(grp.span(), format!("robots[{g}].{m}")));
             }
             let model = gr.model.get_ref();
             if self.registry.robot_model(model).is_none() {

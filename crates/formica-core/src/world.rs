@@ -8,7 +8,7 @@ use crate::geometry::{compound_shape, part_outlines, Part, Pose, Vec2};
 use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
 use crate::scenario::{
-    steps_for, Color, Placement, Scenario, ScenarioError, SensorOptions, Substeps,
+    steps_for, Color, Placement, Scenario, ScenarioError, SensorConfig, Substeps,
 };
 use crate::sensors::{sense, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds};
 use rand::{Rng, SeedableRng};
@@ -62,8 +62,8 @@ pub struct Group {
     pub model_name: String,
     /// Sensor layout handed to controllers.
     pub layout: SensorLayout,
-    /// Sensor options.
-    pub sensors: SensorOptions,
+    /// Sensor settings (the noise preset with the file's overrides).
+    pub sensors: SensorConfig,
     /// Controller name.
     pub controller: String,
     factory: ControllerFactory,
@@ -82,6 +82,23 @@ impl Group {
     pub fn is_batched(&self) -> bool {
         self.batch.is_some()
     }
+}
+
+/// A warning about a group's sensors, for `formica check`: the oracle camera (an ablation that
+/// no real robot has), or a noise-free run.
+pub fn sensor_warning(g: &Group) -> Option<String> {
+    use crate::scenario::CameraKind;
+    let mut w = Vec::new();
+    if g.sensors.camera == CameraKind::Oracle && g.needs().camera {
+        w.push(
+            "camera = \"oracle\": the camera sees object bodies and exact distances, which no \
+             real colour-blob camera does (an ablation; the default is \"blob\")",
+        );
+    }
+    if g.sensors.preset == crate::noise::NoisePreset::None {
+        w.push("noise = \"none\": every reading is exact (no real robot's are)");
+    }
+    (!w.is_empty()).then(|| w.join("; "))
 }
 
 /// One robot.
@@ -287,7 +304,8 @@ impl World {
                 let m = registry.unknown_model(&model_name);
                 sc.error_at(grp.model.span(), format!("robots[{g}].model: {m}"))
             })?;
-            let layout = SensorLayout::of(&model);
+            let sensors = grp.sensors.resolve(model.kind);
+            let layout = SensorLayout::of(&model, &sensors);
             let name = ov
                 .controller
                 .clone()
@@ -336,7 +354,7 @@ impl World {
                 model,
                 model_name,
                 layout,
-                sensors: grp.sensors.clone(),
+                sensors,
                 controller: name,
                 batch: factory.make_batch(),
                 factory,
@@ -548,6 +566,16 @@ impl World {
             .iter()
             .map(|r| groups[r.group].model.height)
             .collect();
+        let physics = &self.physics;
+        let discs: Vec<(Vec2, f32)> = robots
+            .iter()
+            .map(|r| {
+                let c = r
+                    .body
+                    .map_or(r.start.position(), |b| physics.pose(b).position());
+                (c, groups[r.group].model.radius)
+            })
+            .collect();
         let leds: Vec<Color> = robots.iter().map(|r| r.led).collect();
         let height = |t: Tag| match t {
             Tag::Wall(i) => walls[i].height,
@@ -555,7 +583,7 @@ impl World {
             Tag::Robot(i) => heights[i],
         };
         let color = |t: Tag| match t {
-            Tag::Wall(_) => Color::Off,
+            Tag::Wall(_) => Color::Grey,
             Tag::Object(i) => objects[i].color,
             Tag::Robot(i) => leds[i],
         };
@@ -564,6 +592,7 @@ impl World {
             lights: &self.lights,
             height: &height,
             color: &color,
+            robots: &discs,
             beacon,
             robot_height: groups.iter().map(|g| g.model.height).fold(0.0, f32::max),
         };

@@ -164,3 +164,81 @@ placement = { poses = [[-0.33, 0.1, 0.0], [-0.33, -0.1, 0.0]] }
         (rel1 - rel0).length()
     );
 }
+
+/// A static U whose cavity is `width` wide (y) and 0.4 m deep (x), closed at +x; its hull is
+/// the 0.5 x (width + 0.2) m rectangle around it.
+fn u_of_width(width: f32) -> String {
+    let arm_y = width / 2.0 + 0.05;
+    format!(
+        r#"
+[[objects]]
+movable = false
+parts = [
+  {{ box = [0.1, {h}], at = [0.2, 0.0] }},
+  {{ box = [0.4, 0.1], at = [-0.05, {arm_y}] }},
+  {{ box = [0.4, 0.1], at = [-0.05, -{arm_y}] }},
+]
+"#,
+        h = width + 0.2
+    )
+}
+
+fn capacity_of(body: &str) -> usize {
+    let sc = scenario(&format!(
+        "{body}{}",
+        robot_group("constant", "left = 0.0", &[[2.0, 1.0, 0.0]])
+    ));
+    let run = start(&sc, 1);
+    formica::metrics::cavity_capacity(&run.world, 0, 0.0704)
+}
+
+#[test]
+fn cavity_capacity_counts_the_discs_that_fit() {
+    // 0.3 x 0.4 m: disc centres range over 0.159 x 0.259 m; a hexagonal packing puts rows of
+    // 2, 1 and 2 along the depth (5), a square one only 2 x 2; 6 do not fit.
+    assert_eq!(capacity_of(&u_of_width(0.3)), 5);
+    // Narrower than a robot (0.1408 m): nothing fits.
+    assert_eq!(capacity_of(&u_of_width(0.13)), 0);
+    // A convex object has no cavity.
+    assert_eq!(
+        capacity_of("[[objects]]\nmovable = false\nshape = { box = [0.5, 0.5] }\n"),
+        0
+    );
+    // The seed's U: 0.6 x 0.4 m, disc centres over 0.459 x 0.259 m: hexagonal rows of 4, 3
+    // and 4 along the base (0.244 m of depth), 11; 12 would need a fourth row or rows of 4.
+    let u = r#"
+[[objects]]
+movable = false
+parts = [
+  { box = [0.5, 0.2], at = [-1.0, 0.4] },
+  { box = [0.5, 0.2], at = [-1.0, -0.4] },
+  { box = [0.2, 1.0], at = [-0.75, 0.0] },
+]
+"#;
+    assert_eq!(capacity_of(u), 11);
+}
+
+#[test]
+fn a_robot_outside_the_u_does_not_stop_against_its_back() {
+    // Against the outside of the U's back wall (the seed's false stop), with a red neighbour
+    // ahead and one behind so that 4 sensors fire: the object does not surround the robot.
+    let me = [-0.575, 0.0, 90.0];
+    let others = [[-0.575, 0.145, 90.0], [-0.575, -0.145, 90.0]];
+    let body = format!(
+        "{U}{}{}",
+        filling_robots(&[me], "filter_neighbours = false"),
+        red_neighbours(&others)
+    );
+    let mut run = start(&scenario(&body), 1);
+    run_for(&mut run, 10.0);
+    assert!(run.world.robots[0].attached.is_none());
+    // The seed's rule stops there.
+    let body = format!(
+        "{U}{}{}",
+        filling_robots(&[me], "filter_neighbours = false, require_object = false"),
+        red_neighbours(&others)
+    );
+    let mut run = start(&scenario(&body), 1);
+    run_for(&mut run, 10.0);
+    assert!(run.world.robots[0].attached.is_some());
+}

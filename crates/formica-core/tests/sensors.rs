@@ -6,12 +6,20 @@ use formica::ops;
 use formica::robot::RobotModel;
 use formica::sensors::light_blocked;
 
-/// A robot that reads proximity and light but stands still.
+/// Robots that read proximity and light but stand still, with exact sensors.
 fn watcher(poses: &[[f32; 3]]) -> String {
-    robot_group(
-        "random-walk",
-        "speed = 0.0, turn_every_s = 1e9, avoid_threshold = 10.0",
-        poses,
+    watcher_with(poses, "noise = \"none\"")
+}
+
+/// Still proximity-and-light robots with the given `sensors` table (TOML, without braces).
+fn watcher_with(poses: &[[f32; 3]], sensors: &str) -> String {
+    format!(
+        "{}sensors = {{ {sensors} }}\n",
+        robot_group(
+            "random-walk",
+            "speed = 0.0, turn_every_s = 1e9, avoid_threshold = 10.0",
+            poses,
+        )
     )
 }
 
@@ -113,42 +121,316 @@ fn light_strength_follows_distance_law() {
     assert!((got - want).abs() < 1e-4, "{got} vs {want}");
 }
 
-/// A robot whose controller reads the camera (LED green so others can see it).
-fn camera_watchers(poses: &[[f32; 3]]) -> String {
-    robot_group(
-        "constant",
-        "left = 0.0, right = 0.0, led = \"red\", camera = true",
-        poses,
-    )
+#[test]
+fn a_hidden_light_reads_the_ambient_level_not_zero() {
+    let sc = scenario(&format!(
+        "{LIGHT}{}{}",
+        seed_box(0.0, 0.0),
+        watcher_with(&[[-1.0, 0.0, 0.0]], "noise = \"realistic\"")
+    ));
+    let mut run = start(&sc, 1);
+    run.world.step();
+    let l = &run.world.robots[0].readings.light;
+    let mean = l.iter().sum::<f32>() / l.len() as f32;
+    assert!(l.iter().all(|v| *v > 0.0), "{l:?}");
+    assert!((mean - 0.05).abs() < 0.02, "ambient {mean}: {l:?}");
+    assert!(formica::controllers::occlusion::light_contrast(l) < 0.06);
+}
+
+/// Mean and standard deviation of `xs`.
+fn moments(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
+    (mean, var.sqrt())
 }
 
 #[test]
-fn camera_sees_the_object_colour_and_lit_robots_unless_hidden() {
-    // Robot 0 faces east at (-1, 0); the green box's west face is 0.75 m ahead.
-    // Robot 1 is north of it, in view; robot 2 sits behind the box, hidden from robot 0.
+fn noise_on_each_sensor_has_the_preset_mean_and_spread() {
+    // Ten still robots in a row 3 cm (body to wall) below the north wall, facing east: the
+    // left sensor (+90 deg) sees the wall, the front light sensor the light, and the
+    // positioning sensor their poses. 10^4 ticks give 10^5 samples of each sensor.
+    let m = RobotModel::khepera4();
+    let y = 1.95 - m.radius - 0.055;
+    let poses: Vec<[f32; 3]> = (0..10).map(|i| [-2.0 + 0.3 * i as f32, y, 0.0]).collect();
+    let light = format!("[[lights]]\nat = [2.9, {y}]\nheight = 1.0\nintensity = 10.0\n");
+    let exact = {
+        let sc = scenario(&format!("{light}{}", watcher(&poses)));
+        let mut run = start(&sc, 1);
+        run.world.step();
+        run.world
+            .robots
+            .iter()
+            .map(|r| r.readings.clone())
+            .collect::<Vec<_>>()
+    };
+    let sc = scenario(&format!(
+        "{light}{}",
+        watcher_with(&poses, "noise = \"realistic\"")
+    ));
+    let cfg = formica::scenario::SensorOptions::default().resolve(m.kind);
+    let nz = cfg.noise;
+    let mut run = start(&sc, 3);
+    let f = f64::from;
+    let rel = |r: f32, fl: f32, x: f64| {
+        let (a, b) = (f(r) * x, f(fl));
+        (a * a + b * b).sqrt()
+    };
+    let (mut prox, mut lum, mut dx, mut dth) = (vec![], vec![], vec![], vec![]);
+    for _ in 0..10_000 {
+        run.world.step();
+        for (i, r) in run.world.robots.iter().enumerate() {
+            let e = &exact[i];
+            prox.push(f64::from(r.readings.proximity[2] - e.proximity[2]));
+            // Light: the exact reading plus the ambient level, then multiplicative plus floor;
+            // normalised, as each robot sees the light at its own strength.
+            let lit = f(e.light[0] + nz.ambient_light);
+            let sd = rel(nz.light_noise, nz.light_floor, lit);
+            lum.push((f(r.readings.light[0]) - lit) / sd);
+            dx.push(f64::from(r.readings.pose.x - poses[i][0]));
+            dth.push(f64::from(formica::geometry::wrap_angle(
+                r.readings.pose.theta,
+            )));
+        }
+    }
+    let v = f64::from(exact[0].proximity[2]);
+    assert!(v > 0.3 && v < 0.9, "wall reading {v}");
+    for e in &exact {
+        assert!(
+            e.light[0] > 0.2 && e.light[0] < 0.8,
+            "light reading {}",
+            e.light[0]
+        );
+    }
+    let within = |name: &str, got: (f64, f64), mean: f64, sd: f64| {
+        eprintln!(
+            "{name}: mean {:.5} (want {mean:.5}), sd {:.5} (want {sd:.5})",
+            got.0, got.1
+        );
+        assert!(
+            (got.0 - mean).abs() <= 0.05 * sd,
+            "{name}: mean {} vs {mean}",
+            got.0
+        );
+        assert!(
+            (got.1 - sd).abs() <= 0.05 * sd,
+            "{name}: sd {} vs {sd}",
+            got.1
+        );
+    };
+    // Proximity: multiplicative plus floor, around the exact reading.
+    within(
+        "proximity",
+        moments(&prox),
+        0.0,
+        rel(nz.proximity_noise, nz.proximity_floor, v),
+    );
+    within("light (normalised)", moments(&lum), 0.0, 1.0);
+    within("position", moments(&dx), 0.0, f(nz.position_noise));
+    within("heading", moments(&dth), 0.0, f(nz.heading_noise));
+}
+
+#[test]
+fn readings_are_clamped_where_the_hardware_saturates() {
+    // Touching the wall: the exact reading is 1; noise never pushes it above.
+    let m = RobotModel::khepera4();
+    let sc = scenario(&watcher_with(
+        &[[2.95 - m.radius - 0.01, 0.0, 0.0]],
+        "noise = \"realistic\", proximity_noise = 0.5",
+    ));
+    let mut run = start(&sc, 1);
+    for _ in 0..200 {
+        run.world.step();
+        let p = &run.world.robots[0].readings.proximity;
+        assert!(p.iter().all(|v| (0.0..=1.0).contains(v)), "{p:?}");
+    }
+}
+
+/// Robots whose controller reads the camera and the scan, LEDs lit in `led`.
+fn camera_watchers(poses: &[[f32; 3]], led: &str) -> String {
+    format!(
+        "{}sensors = {{ noise = \"none\" }}\n",
+        robot_group(
+            "constant",
+            &format!("left = 0.0, right = 0.0, led = \"{led}\", camera = true, scan = true"),
+            poses,
+        )
+    )
+}
+
+/// Two steps: LEDs light up when the first decisions are acted on.
+fn two_steps(sc: &formica::Scenario) -> formica::experiment::Run {
+    let mut run = start(sc, 1);
+    run.world.step();
+    run.world.step();
+    run
+}
+
+#[test]
+fn the_blob_camera_sees_leds_in_sight_and_not_behind_the_box() {
+    // Robot 0 faces east at (-1, 0). Robot 1 is north of it, in view; robot 2 sits behind the
+    // 0.5 m tall box, hidden from robot 0.
     let sc = scenario(&format!(
         "{}{}",
         seed_box(0.0, 0.0),
-        camera_watchers(&[[-1.0, 0.0, 0.0], [-1.0, 0.8, 0.0], [0.6, 0.0, 0.0]])
+        camera_watchers(
+            &[[-1.0, 0.0, 0.0], [-1.0, 0.8, 0.0], [0.6, 0.0, 0.0]],
+            "red"
+        )
     ));
-    let mut run = start(&sc, 1);
-    // Two ticks: LEDs light up when the first decisions are acted on.
-    run.world.step();
-    run.world.step();
+    let run = two_steps(&sc);
     let blobs = &run.world.robots[0].readings.blobs;
-    let object = blobs
-        .iter()
-        .find(|b| !b.is_robot)
-        .unwrap_or_else(|| panic!("no object blob in {blobs:?}"));
-    assert_eq!(object.color, formica::scenario::Color::Green);
+    assert_eq!(blobs.len(), 1, "only the LED in view: {blobs:?}");
+    assert_eq!(blobs[0].color, formica::scenario::Color::Red);
+    assert!((blobs[0].bearing - std::f32::consts::FRAC_PI_2).abs() < 0.01);
+    // The distance is to the LED (the robot's centre).
     assert!(
-        (object.distance - 0.75).abs() < 0.01,
-        "distance {}",
-        object.distance
+        (blobs[0].distance - 0.8).abs() < 0.01,
+        "{}",
+        blobs[0].distance
     );
-    assert!(object.bearing.abs() < 0.01, "bearing {}", object.bearing);
-    let robots: Vec<_> = blobs.iter().filter(|b| b.is_robot).collect();
-    assert_eq!(robots.len(), 1, "only the robot in view: {blobs:?}");
-    assert_eq!(robots[0].color, formica::scenario::Color::Red);
-    assert!((robots[0].bearing - std::f32::consts::FRAC_PI_2).abs() < 0.05);
+    // Robot 2, behind the box, sees neither (both lines of sight cross the box).
+    let seen_by_2 = &run.world.robots[2].readings.blobs;
+    assert!(seen_by_2.is_empty(), "seen through the box: {seen_by_2:?}");
+    // With the box removed, robot 0 sees robot 2 as well.
+    let sc = scenario(&camera_watchers(
+        &[[-1.0, 0.0, 0.0], [-1.0, 0.8, 0.0], [0.4, 0.0, 0.0]],
+        "red",
+    ));
+    let run = two_steps(&sc);
+    assert_eq!(run.world.robots[0].readings.blobs.len(), 2);
+}
+
+#[test]
+fn the_blob_camera_sees_no_object_bodies_but_the_oracle_does() {
+    let body = |camera: &str| {
+        format!(
+            "{}{}sensors = {{ noise = \"none\", camera = \"{camera}\" }}\n",
+            seed_box(0.0, 0.0),
+            robot_group(
+                "constant",
+                "left = 0.0, right = 0.0, led = \"red\", camera = true",
+                &[[-1.0, 0.0, 0.0]],
+            )
+        )
+    };
+    let run = two_steps(&scenario(&body("blob")));
+    assert!(run.world.robots[0].readings.blobs.is_empty());
+    let run = two_steps(&scenario(&body("oracle")));
+    let b = &run.world.robots[0].readings.blobs;
+    assert_eq!(b.len(), 1, "{b:?}");
+    assert_eq!(b[0].color, formica::scenario::Color::Green);
+    assert!((b[0].distance - 0.75).abs() < 0.01 && b[0].bearing.abs() < 0.01);
+}
+
+#[test]
+fn the_colour_scan_shows_the_object_colour_where_the_object_is() {
+    // Facing east at (-1, 0), the 0.5 m box spans bearings within atan(0.25 / 0.75) = 18.4 deg
+    // of straight ahead; a red robot stands due north 0.5 m away, a wall 2 m to the south.
+    let sc = scenario(&format!(
+        "{}{}{}",
+        seed_box(0.0, 0.0),
+        camera_watchers(&[[-1.0, 0.0, 0.0]], "red"),
+        camera_watchers(&[[-1.0, 0.5, 0.0]], "blue"),
+    ));
+    let run = two_steps(&sc);
+    let r = &run.world.robots[0].readings;
+    let layout = &run.world.groups[0].layout;
+    assert_eq!(r.scan_color.len(), 36);
+    for ((c, d), a) in r
+        .scan_color
+        .iter()
+        .zip(&r.scan_range)
+        .zip(&layout.scan_angles)
+    {
+        use formica::scenario::Color;
+        let deg = a.to_degrees();
+        if deg.abs() < 17.0 {
+            assert_eq!(*c, Color::Green, "bin at {deg} deg");
+            assert!(*d >= 0.74 && *d <= 0.82, "bin at {deg} deg: {d}");
+        } else if deg.abs() > 20.0 && (deg - 90.0).abs() > 10.0 {
+            assert_ne!(*c, Color::Green, "bin at {deg} deg");
+        }
+        if (deg - 90.0).abs() < 1.0 {
+            assert_eq!(*c, Color::Blue, "the neighbour's LED");
+            assert!((d - (0.5 - 0.0704)).abs() < 0.02, "{d}");
+        }
+    }
+}
+
+#[test]
+fn no_reading_tells_a_robot_from_the_object_but_its_colour() {
+    // A robot showing the object's own colour looks, to the scan and the camera, like
+    // anything else of that colour: readings carry no identity. Only bearing, distance and
+    // colour exist (this pattern stops compiling if a field is added to `Blob`).
+    let formica::sensors::Blob {
+        bearing: _,
+        distance: _,
+        color: _,
+    } = formica::sensors::Blob {
+        bearing: 0.0,
+        distance: 1.0,
+        color: formica::scenario::Color::Green,
+    };
+    let sc = scenario(&format!(
+        "{}{}",
+        camera_watchers(&[[-1.0, 0.0, 0.0]], "red"),
+        camera_watchers(&[[-0.5, 0.0, 0.0]], "green"),
+    ));
+    let run = two_steps(&sc);
+    let r = &run.world.robots[0].readings;
+    assert_eq!(r.scan_color[0], formica::scenario::Color::Green);
+    assert_eq!(r.blobs[0].color, formica::scenario::Color::Green);
+}
+
+#[test]
+fn the_beacon_has_a_range_and_noise() {
+    // Occlusion robots (beacon perception) 1.0 and 2.5 m from the box's centre; range 2 m.
+    let body = format!(
+        "{}{}sensors = {{ noise = \"none\", beacon_range = 2.0, beacon_noise = 0.02 }}\n",
+        seed_box(0.0, 0.0),
+        robot_group(
+            "occlusion",
+            "approach_speed = 0.001, search_speed = 0.001",
+            &[[-1.0, 0.0, 0.0], [-2.5, 0.0, 0.0]]
+        )
+    );
+    let sc = scenario(&body);
+    let mut run = start(&sc, 1);
+    let mut xs = Vec::new();
+    for _ in 0..2000 {
+        run.world.step();
+        let near = run.world.robots[0].readings.beacon;
+        assert!(
+            run.world.robots[1].readings.beacon.is_none(),
+            "beyond range"
+        );
+        let c = run.world.object_center(0);
+        let b = near.unwrap_or_else(|| panic!("no beacon within range"));
+        xs.push(f64::from(b.x - c.x));
+    }
+    let (mean, sd) = moments(&xs);
+    assert!(
+        mean.abs() < 0.002 && (sd - 0.02).abs() < 0.002,
+        "{mean} {sd}"
+    );
+}
+
+#[test]
+fn check_warns_about_the_oracle_camera_and_exact_sensors() {
+    let group = |sensors: &str| {
+        format!(
+            "{}sensors = {{ {sensors} }}\n",
+            robot_group("constant", "camera = true", &[[0.0, 0.0, 0.0]])
+        )
+    };
+    let warn = |sensors: &str| {
+        let run = start(&scenario(&group(sensors)), 1);
+        formica::world::sensor_warning(&run.world.groups[0])
+    };
+    let w = warn("camera = \"oracle\"").unwrap_or_default();
+    assert!(w.contains("oracle"), "{w}");
+    let w = warn("noise = \"none\"").unwrap_or_default();
+    assert!(w.contains("exact"), "{w}");
+    assert_eq!(warn("noise = \"realistic\""), None);
 }

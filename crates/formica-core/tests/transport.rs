@@ -110,7 +110,7 @@ fn camera_robots_transport_too() {
     let sc = Scenario::parse(&text, "camera.toml").unwrap_or_else(|e| panic!("{e}"));
     let mut run = start(&sc, 1);
     assert_eq!(run.run_to_end(), Outcome::Success);
-    assert!(run.world.groups[0].needs().camera && !run.world.groups[0].needs().beacon);
+    assert!(run.world.groups[0].needs().scan && !run.world.groups[0].needs().beacon);
 }
 
 #[test]
@@ -127,4 +127,25 @@ fn unknown_or_bad_parameters_are_rejected() {
         let err = formica::World::new(&sc, &Overrides::default());
         assert!(err.is_err(), "{params} was accepted");
     }
+}
+
+#[test]
+fn occlusion_still_pushes_with_the_presets_noise() {
+    // The shipped scenario runs with the realistic preset: noisy proximity, light with ambient
+    // light (a hidden goal never reads zero), noisy positions and headings.
+    let sc = shipped("seed-transport.toml");
+    let run = start(&sc, 4);
+    let cfg = run.world.groups[0].sensors;
+    assert_eq!(cfg.preset, formica::noise::NoisePreset::Realistic);
+    assert!(cfg.noise.light_noise > 0.0 && cfg.noise.ambient_light > 0.0);
+    assert!(cfg.noise.position_noise > 0.0 && cfg.noise.heading_noise > 0.0);
+    let t = distance_trace(&sc, 4);
+    assert_eq!(t.outcome, Outcome::Success);
+    assert!(t.ticks > 0, "nobody pushed");
+    assert!(
+        t.closer as f64 >= 0.9 * t.moving as f64,
+        "closer in {} of {} moving ticks",
+        t.closer,
+        t.moving
+    );
 }

@@ -26,6 +26,9 @@ pub struct Params {
     /// Compute camera readings (for tests and recordings of what robots see).
     #[serde(default)]
     pub camera: bool,
+    /// Compute colour-scan readings (likewise).
+    #[serde(default)]
+    pub scan: bool,
 }
 
 fn default_speed() -> f32 {
@@ -40,6 +43,7 @@ pub fn factory(
     let p: Params = parse_params(params)?;
     let needs = SensorNeeds {
         camera: p.camera,
+        scan: p.scan,
         ..SensorNeeds::default()
     };
     Ok(ControllerFactory::new(needs, move || Box::new(Constant(p))))

@@ -2,8 +2,9 @@
 //!
 //! Each robot, on its own and without messages:
 //!
-//! 1. **search / approach**: steers toward the summed light vector of the object's beacon light
-//!    (the light hangs above the object); random walk while the light is hidden.
+//! 1. **search / approach**: steers toward the object's beacon light (the light hangs above the
+//!    object; its bearing from the light ring, [`light_bearing`]); random walk while the ring
+//!    shows no light above its ambient background (contrast below `light_contrast`).
 //! 2. **follow**: on touching something that is *object-like* (see below), follows its edge with
 //!    the **left-hand rule** (the edge stays on the robot's left), at about `follow_reading`.
 //!    Where the edge turns away (a convex corner), it arcs left for up to `lost_s` to find it
@@ -24,20 +25,25 @@
 //!    following and does not test again for `retry_s`.
 //!
 //! **The fix of the seed's failure** (robots that stop because neighbours, not the object,
-//! surround them). Moving robots show red LEDs, attached ones blue. With `filter_neighbours`
-//! (default), the robot reads its colour-blob camera: a proximity sensor whose bearing falls on
-//! a *red/non-blue robot* blob within proximity range (within the neighbour's angular half-width
-//! plus 0.15 rad) is explained by a moving neighbour and is not object-like. Attached (blue)
-//! robots and the object itself are object-like. With `require_object` (default) the stop test
-//! also needs the object or a blue robot in sight within proximity range, so arena walls and
-//! their corners (invisible to the camera) never make a robot stop. Together with the `hold_s`
-//! persistence test while creeping, a robot stops only where the object (or the pseudo object)
-//! really surrounds it. `filter_neighbours = false, require_object = false, hold_s = 0`
-//! reproduces the seed's rule.
+//! surround them). Moving robots show red LEDs, attached ones blue; the object has its own
+//! colour (`object_color`). With `filter_neighbours` (default), the robot reads its colour scan
+//! ([`Readings::scan_color`], as Queiroz and MacRae's panoramic cameras): a proximity sensor
+//! whose bearing falls on scan bins that show a *moving robot* (any colour but the object's,
+//! blue, a wall's grey or nothing) within proximity range is explained by a neighbour and is not
+//! object-like. Attached (blue) robots and the object itself are object-like. With
+//! `require_object` (default) the stop test also needs the object's colour or a blue robot in
+//! the scan within proximity range, so arena walls and their corners (grey) never make a robot
+//! stop. Together with the `hold_s` persistence test while creeping, a robot stops only where
+//! the object (or the pseudo object) really surrounds it. Robots tell neighbour from object by
+//! colour only, as a real robot would. `perception = "camera"` reads the colour-blob camera
+//! instead (LED blobs; the object is seen only with the `camera = "oracle"` ablation).
+//! `filter_neighbours = false, require_object = false, hold_s = 0` reproduces the seed's rule,
+//! with the seed's sensors only (proximity and light).
 
 use crate::controller::{
     parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
 };
+use crate::controllers::occlusion::{self, is_robot_colour, light_contrast};
 use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
 use crate::scenario::Color;
@@ -45,6 +51,17 @@ use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
 use serde::Deserialize;
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
+
+/// Which camera tells neighbours from the object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FillPerception {
+    /// The colour scan (default).
+    #[default]
+    Scan,
+    /// The colour-blob camera (LEDs; objects only with the oracle ablation).
+    Camera,
+}
 
 /// Parameters of `filling` (all optional; defaults suit Khepera IV and the seed's objects).
 #[derive(Debug, Clone, Deserialize)]
@@ -67,6 +84,26 @@ pub struct Params {
     pub fire_threshold: f32,
     /// Proximity readings at or below this are taken as nothing (sensor noise). Default 0.03.
     pub noise_floor: f32,
+    /// Light-ring contrast (strongest reading above the mean of the weaker half) above which
+    /// the beacon light counts as seen. Default 0.08.
+    pub light_contrast: f32,
+    /// Camera that tells neighbours from the object: `"scan"` (default) or `"camera"`.
+    pub perception: FillPerception,
+    /// Colour of the object. Default `green`.
+    pub object_color: Color,
+    /// With `require_object` and the scan: stop only where the object surrounds the robot, the
+    /// largest gap (degrees) between scan bins that show the object's colour or an attached
+    /// (blue) robot, which may hide the object, being at most this. A point lies inside the
+    /// object's convex hull exactly when the object leaves no gap above 180 degrees, so this
+    /// keeps robots from stopping outside the hull (against the outside of a U's back wall, or
+    /// stacked past a shallow cavity's mouth). 0 turns the check off. Default 190 (one bin of
+    /// slack).
+    pub surround_gap_deg: f32,
+    /// With the surround check on: where the object surrounds the robot, this many firing
+    /// object-like sensors (of 8) suffice if one of them touches an attached (blue) robot: the
+    /// filling front, such as the last row at a cavity's mouth, where the pseudo object
+    /// surrounds the robot over about pi only. 0 turns it off. Default 3.
+    pub front_count: u32,
     /// Firing object-like sensors (of 8; scaled for other rings) that make the object surround
     /// the robot over more than pi. Default 4 (the seed's).
     pub stop_count: u32,
@@ -122,6 +159,11 @@ impl Default for Params {
             max_turn: 3.0,
             fire_threshold: 0.05,
             noise_floor: 0.03,
+            light_contrast: 0.08,
+            perception: FillPerception::Scan,
+            object_color: Color::Green,
+            surround_gap_deg: 190.0,
+            front_count: 3,
             stop_count: 4,
             strong_reading: 0.7,
             strong_count: 2,
@@ -162,10 +204,12 @@ impl Params {
         let non_negative = [
             ("follow_gain", self.follow_gain),
             ("noise_floor", self.noise_floor),
+            ("light_contrast", self.light_contrast),
             ("lost_s", self.lost_s),
             ("hold_s", self.hold_s),
             ("retry_s", self.retry_s),
             ("swing", self.swing),
+            ("surround_gap_deg", self.surround_gap_deg),
         ];
         crate::controller::check_params(&positive, &non_negative)?;
         if self.stop_count == 0 || self.stop_count > 8 {
@@ -179,11 +223,13 @@ impl Params {
 
     /// The sensors a filler with these parameters reads (besides what guides it).
     pub fn needs(&self) -> SensorNeeds {
+        let seeing = self.filter_neighbours || self.require_object;
         SensorNeeds {
             proximity: true,
             light: true,
             beacon: false,
-            camera: self.filter_neighbours || self.require_object,
+            camera: seeing && self.perception == FillPerception::Camera,
+            scan: seeing && self.perception == FillPerception::Scan,
         }
     }
 }
@@ -238,6 +284,10 @@ impl FillState {
 /// What the proximity ring and camera say this tick.
 #[derive(Debug, Clone, Copy, Default)]
 struct Percept {
+    /// Firing object-like sensors that touch an attached (blue) robot.
+    blue: usize,
+    /// The object surrounds the robot (the surround check passed, and is on).
+    inside: bool,
     /// Summed vector of object-like readings (robot frame).
     obj: Vec2,
     /// Largest object-like reading.
@@ -278,6 +328,8 @@ pub struct Filler {
     last_angle: Option<f32>,
     stop_needed: usize,
     strong_needed: usize,
+    /// Firing sensors that suffice at the filling front (0: off).
+    front_needed: usize,
     /// Whether the stop test runs (off: follow edges for ever, as pushers do).
     stopping: bool,
     /// Ticks of the current check, and how many of them passed the stop test.
@@ -291,6 +343,7 @@ impl Filler {
         let n = layout.proximity_angles.len().max(1);
         let stop_needed = ((p.stop_count as usize * n) as f32 / 8.0).ceil() as usize;
         let strong_needed = ((p.strong_count as usize * n) as f32 / 8.0).ceil().max(1.0) as usize;
+        let front_needed = ((p.front_count as usize * n) as f32 / 8.0).ceil() as usize;
         Filler {
             p,
             layout: layout.clone(),
@@ -310,6 +363,7 @@ impl Filler {
             checks: 0,
             passes: 0,
             strong_needed,
+            front_needed,
         }
     }
 
@@ -346,17 +400,115 @@ impl Filler {
         Actuation::from_twist(forward, t, &self.layout)
     }
 
-    fn perceive(&self, r: &Readings) -> Percept {
-        let mut out = Percept::default();
+    /// Whether colour `c` is the object or an attached robot (object-like).
+    fn object_like(&self, c: Color) -> bool {
+        c == self.p.object_color || c == Color::Blue
+    }
+
+    /// Whether the camera sees the object (or, without `object_reach`, an attached robot) near
+    /// enough for the stop test.
+    fn object_seen(&self, r: &Readings) -> bool {
+        let reach = self.layout.radius + self.layout.proximity_range + 0.02;
+        let obj = self.p.object_color;
+        match self.p.perception {
+            FillPerception::Scan => r
+                .scan_color
+                .iter()
+                .zip(&r.scan_range)
+                .any(|(c, d)| match self.p.object_reach {
+                    Some(dd) => *c == obj && *d <= dd,
+                    None => self.object_like(*c) && *d <= reach,
+                }),
+            FillPerception::Camera => r.blobs.iter().any(|b| match self.p.object_reach {
+                Some(dd) => b.color == obj && b.distance <= dd,
+                None => {
+                    // LED blobs are robot centres; object blobs (oracle) surface points.
+                    let d = if b.color == obj {
+                        b.distance
+                    } else {
+                        b.distance - self.layout.radius
+                    };
+                    self.object_like(b.color) && d <= reach
+                }
+            }),
+        }
+    }
+
+    /// Whether the object's colour surrounds the robot in the scan (see
+    /// `Params::surround_gap_deg`); true when the check is off or there is no scan.
+    fn object_surrounds(&self, r: &Readings) -> bool {
+        let n = r.scan_color.len();
+        if self.p.surround_gap_deg <= 0.0 || self.p.perception != FillPerception::Scan || n == 0 {
+            return true;
+        }
+        let bins: Vec<usize> = (0..n)
+            .filter(|i| self.object_like(r.scan_color[*i]))
+            .collect();
+        let (Some(first), Some(last)) = (bins.first(), bins.last()) else {
+            return false;
+        };
+        let mut gap = first + n - last;
+        for w in bins.windows(2) {
+            gap = gap.max(w[1] - w[0]);
+        }
+        gap as f32 * 360.0 / n as f32 <= self.p.surround_gap_deg
+    }
+
+    /// Whether a proximity hit at bearing `a` (robot frame) falls on scan bins showing an
+    /// attached (blue) robot within proximity range.
+    fn blue_at(&self, r: &Readings, a: f32) -> bool {
+        let reach = self.layout.radius + self.layout.proximity_range + 0.02;
+        let half = PI / self.layout.scan_angles.len().max(1) as f32 + 0.15;
+        r.scan_color
+            .iter()
+            .zip(&r.scan_range)
+            .zip(&self.layout.scan_angles)
+            .any(|((c, d), b)| *c == Color::Blue && *d <= reach && wrap_angle(a - b).abs() <= half)
+    }
+
+    /// Whether a proximity hit at bearing `a` (robot frame) is explained by a moving neighbour.
+    fn neighbour_at(&self, r: &Readings, a: f32) -> bool {
         let reach = self.layout.radius + self.layout.proximity_range + 0.02;
         let rad = self.layout.radius;
-        for b in &r.blobs {
-            let seen = match self.p.object_reach {
-                Some(d) => !b.is_robot && b.distance <= d,
-                None => b.distance <= reach && (!b.is_robot || b.color == Color::Blue),
-            };
-            out.object_seen |= seen;
+        let obj = self.p.object_color;
+        match self.p.perception {
+            FillPerception::Scan => {
+                let half = PI / self.layout.scan_angles.len().max(1) as f32 + 0.15;
+                r.scan_color
+                    .iter()
+                    .zip(&r.scan_range)
+                    .zip(&self.layout.scan_angles)
+                    .any(|((c, d), b)| {
+                        is_robot_colour(*c, obj)
+                            && *c != Color::Blue
+                            && *d <= reach
+                            && wrap_angle(a - b).abs() <= half
+                    })
+            }
+            FillPerception::Camera => r.blobs.iter().any(|b| {
+                if !is_robot_colour(b.color, obj) || b.color == Color::Blue {
+                    return false;
+                }
+                let centre = b.distance.max(rad);
+                if centre - rad > reach {
+                    return false;
+                }
+                let half = ops::asin((rad / centre).min(1.0)) + 0.15;
+                wrap_angle(a - b.bearing).abs() <= half
+            }),
         }
+    }
+
+    fn perceive(&self, r: &Readings) -> Percept {
+        let mut out = Percept {
+            object_seen: !self.p.require_object
+                || (self.object_seen(r) && self.object_surrounds(r)),
+            inside: self.p.require_object
+                && self.p.surround_gap_deg > 0.0
+                && self.p.perception == FillPerception::Scan
+                && self.object_surrounds(r),
+            ..Percept::default()
+        };
         for (v, a) in r.proximity.iter().zip(&self.layout.proximity_angles) {
             if *v <= self.p.noise_floor {
                 continue;
@@ -365,37 +517,30 @@ impl Filler {
             if wrap_angle(*a).abs() < 0.88 {
                 out.front = out.front.max(*v);
             }
-            let neighbour = self.p.filter_neighbours
-                && r.blobs.iter().any(|b| {
-                    if !b.is_robot || b.color == Color::Blue || b.distance > reach {
-                        return false;
-                    }
-                    let centre = b.distance + rad;
-                    let half = ops::asin((rad / centre).min(1.0)) + 0.15;
-                    wrap_angle(a - b.bearing).abs() <= half
-                });
-            if neighbour {
+            if self.p.filter_neighbours && self.neighbour_at(r, *a) {
                 out.nb += dir * *v;
             } else {
                 out.obj += dir * *v;
                 out.obj_max = out.obj_max.max(*v);
                 if *v > self.p.fire_threshold {
                     out.count += 1;
+                    if self.front_needed > 0 && self.blue_at(r, *a) {
+                        out.blue += 1;
+                    }
                 }
                 if *v >= self.p.strong_reading {
                     out.strong += 1;
                 }
             }
         }
-        if !self.p.require_object {
-            out.object_seen = true;
-        }
         out
     }
 
     /// Whether the stop test passes on this percept.
     fn surrounded(&self, pc: &Percept) -> bool {
-        pc.count >= self.stop_needed && pc.object_seen
+        let front =
+            self.front_needed > 0 && pc.inside && pc.blue > 0 && pc.count >= self.front_needed;
+        (pc.count >= self.stop_needed || front) && pc.object_seen
     }
 
     /// Whether a check is worth starting: surrounded, or pressed against something over 3
@@ -629,18 +774,18 @@ impl Filling {
     }
 }
 
-/// Bearing (robot frame) of the summed light vector, if any light is seen.
-pub fn light_bearing(r: &Readings, layout: &SensorLayout) -> Option<f32> {
-    let mut v = Vec2::ZERO;
-    for (l, a) in r.light.iter().zip(&layout.light_angles) {
-        v += ops::unit(*a) * *l;
+/// Bearing (robot frame) of a light on the ring, if the ring's contrast (see
+/// [`light_contrast`]) exceeds `threshold`.
+pub fn light_bearing(r: &Readings, layout: &SensorLayout, threshold: f32) -> Option<f32> {
+    if light_contrast(&r.light) <= threshold {
+        return None;
     }
-    (v.length() > 1e-6).then(|| ops::angle_of(v))
+    occlusion::light_bearing(&r.light, &layout.light_angles)
 }
 
 impl Controller for Filling {
     fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
-        let target = light_bearing(r, &self.layout);
+        let target = light_bearing(r, &self.layout, self.filler.p.light_contrast);
         self.filler.step_guided(r, rng, target, None)
     }
 

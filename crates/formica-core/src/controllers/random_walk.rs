@@ -80,8 +80,7 @@ impl Controller for RandomWalk {
             sy += v * ops::sin(*a);
         }
         let strength = (sx * sx + sy * sy).sqrt();
-        let light: f32 = r.light.iter().sum();
-        let led = if light > 0.0 {
+        let led = if crate::controllers::occlusion::light_contrast(&r.light) > 0.1 {
             Color::Yellow
         } else {
             Color::Off
