@@ -313,7 +313,7 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
         return Err(ShapeError("polygon vertices must be finite numbers".into()));
     }
     for i in 0..n {
-        let (a, b, c) = (pts[i], pts[(i + 1) % n], pts[(i + 2) % n]);
+        let (a, b) = (pts[i], pts[(i + 1) % n]);
         if (a - b).length() < MIN_SIZE_M {
             return Err(ShapeError(format!(
                 "polygon vertices {} and {} coincide (closer than {MIN_SIZE_M} m)",
@@ -321,6 +321,9 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
                 (i + 1) % n + 1
             )));
         }
+    }
+    for i in 0..n {
+        let (a, b, c) = (pts[i], pts[(i + 1) % n], pts[(i + 2) % n]);
         // The turn at `b`, relative to the two edges' lengths: a vertex on the line through
         // its neighbours adds nothing (straight on) or folds the outline back on itself (a
         // spike of no width).

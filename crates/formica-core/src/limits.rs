@@ -6,7 +6,7 @@
 //! robots, arenas of 1 km, 1 to 1000 ticks/s) and narrow enough that no accepted file can
 //! exhaust memory, overflow a float or hang a run: the README's "Limits" section lists them.
 
-use crate::scenario::{PartSpec, Placement, Scenario, ScenarioError};
+use crate::scenario::{PartSpec, Placement, Scenario, ScenarioError, SensorOptions};
 use std::ops::Range;
 use toml::de::{DeTable, DeValue};
 use toml::Spanned;
@@ -41,6 +41,10 @@ pub const MAX_MASS_KG: f32 = 1.0e6;
 pub const MAX_FLOOR_MU: f32 = 100.0;
 /// Largest light intensity (ARGoS units).
 pub const MAX_INTENSITY: f32 = 1.0e4;
+/// Largest noise spread (relative spreads are fractions of the reading; angles in rad).
+pub const MAX_SPREAD: f32 = 10.0;
+/// Largest sensor range: camera, colour scan and the scan's range step (m).
+pub const MAX_RANGE_M: f32 = 100.0;
 /// Control ticks per second.
 pub const TICK_HZ: (f32, f32) = (1.0, 1_000.0);
 /// Longest simulated time of one run, and latest release time (s).
@@ -301,6 +305,7 @@ pub(crate) fn check(sc: &Scenario) -> Result<(), ScenarioError> {
                 }
             }
         }
+        c.sensors(&gr.sensors, &p("sensors"))?;
         let r = &gr.release;
         c.real(r.interval_s, 0.0, MAX_DURATION_S, "s", || {
             p("release.interval_s")
@@ -402,6 +407,50 @@ impl Check<'_> {
             &format!("{path}[{MAX_ITEMS}]"),
             format!("{path}: at most {MAX_ITEMS} entries, got {n}"),
         ))
+    }
+
+    /// Noise spreads, ranges and the ambient level of a group's `sensors` table.
+    fn sensors(&self, so: &SensorOptions, path: &str) -> Result<(), ScenarioError> {
+        let spreads = [
+            ("proximity_noise", so.proximity_noise),
+            ("proximity_floor", so.proximity_floor),
+            ("light_noise", so.light_noise),
+            ("light_floor", so.light_floor),
+            ("heading_noise", so.heading_noise),
+            ("camera_noise", so.camera_noise),
+            ("camera_distance_noise", so.camera_distance_noise),
+            ("scan_noise", so.scan_noise),
+        ];
+        for (k, v) in spreads {
+            if let Some(v) = v {
+                self.real(v, 0.0, MAX_SPREAD, "", || format!("{path}.{k}"))?;
+            }
+        }
+        for (k, v, lo, hi) in [
+            ("position_noise", so.position_noise, 0.0, MAX_SIZE_M),
+            ("beacon_noise", so.beacon_noise, 0.0, MAX_SIZE_M),
+            ("ambient_light", so.ambient_light, 0.0, 0.999),
+            ("camera_range", so.camera_range, MIN_SIZE_M, MAX_RANGE_M),
+            ("scan_range", so.scan_range, MIN_SIZE_M, MAX_RANGE_M),
+            ("scan_step", so.scan_step, 0.0, MAX_RANGE_M),
+            (
+                "beacon_range",
+                so.beacon_range,
+                MIN_SIZE_M,
+                2.0 * MAX_COORD_M,
+            ),
+        ] {
+            if let Some(v) = v {
+                self.real(
+                    v,
+                    lo,
+                    hi,
+                    if k == "ambient_light" { "" } else { "m" },
+                    || format!("{path}.{k}"),
+                )?;
+            }
+        }
+        Ok(())
     }
 
     /// The sizes of one shape (the shape's own checks follow in [`PartSpec::to_part`]).

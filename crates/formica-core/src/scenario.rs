@@ -834,6 +834,7 @@ impl Scenario {
             // first entry, where the key belongs, rather than at 1:1 (a comment, often).
             let at = e
                 .span()
+                .filter(|s| s.start > 0)
                 .or_else(|| limits::span_of(text, ""))
                 .map_or(0, |s| s.start);
             invalid(at, message)
