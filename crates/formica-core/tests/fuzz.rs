@@ -26,7 +26,7 @@ const CASE_BYTES: usize = 256 << 20;
 /// Longest one case may take.
 const CASE_TIME: Duration = Duration::from_secs(20);
 /// One case in this many that loads is built and run.
-const BUILD_ONE_IN: u32 = 4;
+const BUILD_ONE_IN: u32 = 10;
 
 /// Values that broke, or could break, something: overflow, zero, tiny, huge, non-finite.
 const NUMBERS: &[&str] = &[
