@@ -158,10 +158,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let sc = load(path, &a.set)?;
     crate::check_controller(a.controller.as_deref())?;
     if let (Some(w), false) = (sc.physics_warning(), a.force) {
-        return Err(CliError::Input(format!(
-            "{}: {w}; --force runs it anyway",
-            sc.file
-        )));
+        // At the key that sets the step: the sub-steps if the file fixes them, else the rate.
+        let key = match sc.spec.run.substeps {
+            formica::scenario::Substeps::Fixed(_) => "run.substeps",
+            formica::scenario::Substeps::Auto => "run.tick_hz",
+        };
+        return Err(sc
+            .error_at_key(key, format!("{w}; --force runs it anyway"))
+            .into());
     }
     crate::check_duration(a.duration)?;
     crate::check_seed(a.seed)?;
