@@ -326,8 +326,14 @@ fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
 fn seed_range_too_large_is_refused() {
     let sc = repo("scenarios/seed-transport.toml");
     for (range, msg) in [
-        ("0..18446744073709551615", "expected A..B with 0 <= A <= B <= 9223372036854775807"),
-        ("0..10000000", "10000001 seeds; at most 10000000 trials a call"),
+        (
+            "0..18446744073709551615",
+            "expected A..B with 0 <= A <= B <= 9223372036854775807",
+        ),
+        (
+            "0..10000000",
+            "10000001 seeds; at most 10000000 trials a call",
+        ),
         ("5..3", "expected A..B"),
     ] {
         let out = formica()
@@ -353,7 +359,11 @@ fn seed_range_too_large_is_refused() {
     let base = std::fs::canonicalize(&sc).unwrap();
     for (seeds, vary, msg) in [
         ("\"0..18446744073709551615\"", "", "seeds: expected A..B"),
-        ("\"1..5000000\"", "\"robots.0.count\" = [1, 2, 3]\n", "more than 10000000 trials"),
+        (
+            "\"1..5000000\"",
+            "\"robots.0.count\" = [1, 2, 3]\n",
+            "more than 10000000 trials",
+        ),
     ] {
         let sweep = dir.join("s.toml");
         std::fs::write(
@@ -371,6 +381,9 @@ fn seed_range_too_large_is_refused() {
             .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{seeds}: {err}");
-        assert!(err.contains(msg) && err.contains("s.toml:"), "{seeds}: {err}");
+        assert!(
+            err.contains(msg) && err.contains("s.toml:"),
+            "{seeds}: {err}"
+        );
     }
 }

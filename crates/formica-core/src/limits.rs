@@ -455,19 +455,21 @@ impl Check<'_> {
 
     /// The sizes of one shape (the shape's own checks follow in [`PartSpec::to_part`]).
     fn part(&self, p: &PartSpec, path: &str) -> Result<(), ScenarioError> {
-        let size = |v: f32, key: String| self.real(v, MIN_SIZE_M, MAX_SIZE_M, "m", || key);
-        let offset = |v: f32, key: String| self.real(v, -MAX_SIZE_M, MAX_SIZE_M, "m", || key);
-        for k in 0..2 {
-            offset(p.at[k], format!("{path}.at[{k}]"))?;
+        let size =
+            |v: f32, key: &dyn Fn() -> String| self.real(v, MIN_SIZE_M, MAX_SIZE_M, "m", key);
+        let offset =
+            |v: f32, key: &dyn Fn() -> String| self.real(v, -MAX_SIZE_M, MAX_SIZE_M, "m", key);
+        for (k, v) in p.at.into_iter().enumerate() {
+            offset(v, &|| format!("{path}.at[{k}]"))?;
         }
         self.angle(p.yaw_deg, || format!("{path}.yaw_deg"))?;
         if let Some(b) = p.box_ {
-            for k in 0..2 {
-                size(b[k], format!("{path}.box[{k}]"))?;
+            for (k, v) in b.into_iter().enumerate() {
+                size(v, &|| format!("{path}.box[{k}]"))?;
             }
         }
         if let Some(r) = p.disc {
-            size(r, format!("{path}.disc"))?;
+            size(r, &|| format!("{path}.disc"))?;
         }
         if let Some(v) = &p.polygon {
             if !(3..=MAX_POLYGON_VERTICES).contains(&v.len()) {
@@ -481,8 +483,8 @@ impl Check<'_> {
                 ));
             }
             for (i, q) in v.iter().enumerate() {
-                for k in 0..2 {
-                    offset(q[k], format!("{path}.polygon[{i}][{k}]"))?;
+                for (k, x) in q.iter().enumerate() {
+                    offset(*x, &|| format!("{path}.polygon[{i}][{k}]"))?;
                 }
             }
         }
@@ -497,7 +499,7 @@ impl Check<'_> {
                     ),
                 ));
             }
-            size(r.radius, format!("{path}.regular.radius"))?;
+            size(r.radius, &|| format!("{path}.regular.radius"))?;
         }
         Ok(())
     }

@@ -209,10 +209,8 @@ fn object_inside_wall_is_refused() {
         .to_string();
     assert!(e.contains("objects[0]: starts inside walls[0]"), "{e}");
     // Touching an arena wall from inside: the wall is centred on the border.
-    let body = format!(
-        "[[objects]]\nat = [2.74, 0.0]\nshape = {{ box = [0.5, 0.5] }}\n[[robots]]\ncount = 1\ncontroller = \"random-walk\"\nplacement = {{ poses = [[0.0, 0.0, 0.0]] }}\n"
-    );
-    let sc = Scenario::parse(&text(&body), "t.toml").unwrap();
+    let body = "[[objects]]\nat = [2.74, 0.0]\nshape = { box = [0.5, 0.5] }\n[[robots]]\ncount = 1\ncontroller = \"random-walk\"\nplacement = { poses = [[0.0, 0.0, 0.0]] }\n";
+    let sc = Scenario::parse(&text(body), "t.toml").unwrap();
     let e = World::new(&sc, &Overrides::default())
         .err()
         .unwrap()
