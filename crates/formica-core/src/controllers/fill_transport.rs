@@ -61,8 +61,13 @@ pub enum AttachedDrive {
     Push,
     /// Rolls with the pseudo object: commands the forward speed and turn rate it measures for
     /// itself from its positioning sensor over `comply_s`; sideways it still skids.
-    #[default]
     Comply,
+    /// As `comply`, and while the pseudo object moves toward the goal's last seen direction
+    /// (faster than `assist_speed` along it), also pushes toward the goal with `attached_push`
+    /// of its top pushing speed along its heading: it helps the pushers, and never holds the
+    /// object back.
+    #[default]
+    Assist,
 }
 
 /// Parameters of `fill-transport`: `fill` and `push` are the parameter tables of `filling` and
@@ -100,6 +105,9 @@ pub struct Params {
     /// `comply`: attached robots heading within this angle (degrees) of the goal's last seen
     /// direction (or its opposite, driving backward) push at `attached_push` instead. 0: never.
     pub comply_push_deg: f32,
+    /// `assist`: speed (m/s) toward the goal's last seen direction above which the pseudo
+    /// object counts as moving toward the goal. Default 0.01.
+    pub assist_speed: f32,
     /// Occlusion with memory: a pusher takes the goal as hidden *by the object* only if the
     /// object's centre lies within this angle (degrees) of the goal's last seen direction;
     /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
@@ -136,7 +144,8 @@ impl Default for Params {
             push_speed: 0.1,
             hidden_s: 0.3,
             attached_push: 0.3,
-            attached: AttachedDrive::Comply,
+            attached: AttachedDrive::Assist,
+            assist_speed: 0.01,
             comply_s: 2.0,
             comply_gain: 1.0,
             comply_push_deg: 0.0,
@@ -172,6 +181,30 @@ pub fn factory(
         return Err(format!(
             "`attached_push` must be 0 to 1, got {}",
             p.attached_push
+        ));
+    }
+    if !(positive(p.comply_s) && p.comply_s <= 60.0) {
+        return Err(format!(
+            "`comply_s` must be above 0 and at most 60 s, got {}",
+            p.comply_s
+        ));
+    }
+    if !(0.0..=2.0).contains(&p.comply_gain) {
+        return Err(format!(
+            "`comply_gain` must be 0 to 2, got {}",
+            p.comply_gain
+        ));
+    }
+    if !(0.0..=1.0).contains(&p.assist_speed) {
+        return Err(format!(
+            "`assist_speed` must be 0 to 1 m/s, got {}",
+            p.assist_speed
+        ));
+    }
+    if !(0.0..=90.0).contains(&p.comply_push_deg) {
+        return Err(format!(
+            "`comply_push_deg` must be 0 to 90, got {}",
+            p.comply_push_deg
         ));
     }
     if !(0.0..=180.0).contains(&p.occluded_within_deg) {
@@ -283,6 +316,7 @@ pub struct FillTransport {
     attached: AttachedDrive,
     comply_push: f32,
     comply_gain: f32,
+    assist_speed: f32,
     /// Own poses while attached, for the velocity estimate.
     track: Track,
     /// `edge` pusher: pushing now, and since when the goal has been hidden / visible.
@@ -319,6 +353,7 @@ impl FillTransport {
             attached: p.attached,
             comply_push: p.comply_push_deg.to_radians(),
             comply_gain: p.comply_gain,
+            assist_speed: p.assist_speed,
             track: Track::new(p.comply_s),
             pushing_now: false,
             hidden_since: None,
@@ -366,7 +401,7 @@ impl FillTransport {
         match self.attached {
             AttachedDrive::Brake => Actuation::default(),
             AttachedDrive::Push => self.goal_dir.map_or_else(Actuation::default, push),
-            AttachedDrive::Comply => {
+            AttachedDrive::Comply | AttachedDrive::Assist => {
                 self.track.add(r);
                 if let Some(g) = self.goal_dir {
                     let off = wrap_angle(g - r.pose.theta).abs();
@@ -377,7 +412,14 @@ impl FillTransport {
                 let Some((vel, w, theta)) = self.track.velocity() else {
                     return Actuation::default();
                 };
-                let fwd = vel.dot(ops::unit(theta)) * self.comply_gain;
+                let mut fwd = vel.dot(ops::unit(theta)) * self.comply_gain;
+                if self.attached == AttachedDrive::Assist {
+                    if let Some(g) = self.goal_dir {
+                        if vel.dot(ops::unit(g)) > self.assist_speed {
+                            fwd += self.attached_push * self.push_speed * ops::cos(g - theta);
+                        }
+                    }
+                }
                 Actuation::from_twist(fwd, w * self.comply_gain, &self.layout)
             }
         }
