@@ -22,8 +22,16 @@
 //! as the object out to the farthest distance from the centre at which the robot followed the
 //! edge, plus `reach_margin` (a fixed `object_reach` too small for the pseudo object makes
 //! pushers near its ends take it for an obstacle, lose it and crowd). `pusher = "edge"` swaps
-//! the occlusion controller for the filler's own edge following. Attached robots' wheels exert
-//! no force; the pseudo object is moved by the pushers only.
+//! the occlusion controller for the filler's own edge following.
+//!
+//! **Attached robots keep their wheels on the floor** (issue 10): braking with locked wheels
+//! they would hold the pseudo object with up to their drive force each. By default
+//! (`attached = "assist"`) an attached robot is compliant: it estimates its own velocity and
+//! turn rate from its positioning sensor (least squares over `comply_s`) and commands them, so
+//! that along its heading it rolls with the pseudo object instead of braking (sideways its
+//! wheels still skid, as real wheels would); and while the pseudo object moves toward the
+//! goal's last seen direction it adds `attached_push` of its pushing speed toward the goal.
+//! It uses its own readings only (pose, light), never the object's true motion.
 //!
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
@@ -93,8 +101,9 @@ pub struct Params {
     /// Attached robots drive toward the goal's last seen direction, `attached_push` times
     /// their top pushing speed along their heading (signed by which way the goal lies), instead
     /// of braking with locked wheels: they push the pseudo object they are part of. 0 brakes.
-    /// Default 0.3 (provisional: 24 seeds after issue 10's braking attached robots gave U 23,
-    /// L 16, arc 15 successes; 1.0 gave 23, 19, 8; 0 gave about 11, 20, 7).
+    /// Default 0.3. In `assist` mode it is added only while the pseudo object moves toward
+    /// the goal (seeds 1-10 with the preset, U / L / arc successes: assist 0.3 gave 9, 8, 6;
+    /// assist 0.6 10, 3, 5; comply alone 8, 8, 8).
     pub attached_push: f32,
     /// Attached robots' wheels: `"comply"` (default), `"push"` or `"brake"`.
     pub attached: AttachedDrive,
