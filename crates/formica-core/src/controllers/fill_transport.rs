@@ -280,8 +280,8 @@ impl Track {
         let n = self.poses.len() as f32;
         let mut mean = [0.0f32; 4];
         for p in &self.poses {
-            for k in 0..4 {
-                mean[k] += p[k] / n;
+            for (m, x) in mean.iter_mut().zip(p) {
+                *m += x / n;
             }
         }
         let (mut stt, mut sx, mut sy, mut sa) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
