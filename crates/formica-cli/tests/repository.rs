@@ -1,6 +1,7 @@
-//! Nothing in the repository names a path of the machine it was made on: no checkout, temporary
-//! or home folder (a report that says where it was made, a comment with someone's scratch file).
-//! Every tracked file is searched, binary ones (figures) included.
+//! The repository as a whole: nothing in it names a path of the machine it was made on (no
+//! checkout, temporary or home folder: a report that says where it was made, a comment with
+//! someone's scratch file; every tracked file is searched, binary ones included), and the README
+//! is a front page: under 150 lines, every relative link resolving to a file.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -94,4 +95,32 @@ fn no_file_names_a_path_of_the_machine_it_was_made_on() {
          `DIR`):\n{}",
         found.join("\n")
     );
+}
+
+#[test]
+fn the_readme_is_a_short_front_page_whose_links_resolve() {
+    let root = root();
+    let text = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let lines = text.lines().count();
+    assert!(lines < 150, "README.md has {lines} lines; the guide (docs/) takes the rest");
+    // The CI's test command, exactly.
+    assert!(text.contains("\ncargo test --release --workspace\n"));
+    let mut bad = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let mut rest = line;
+        while let Some(at) = rest.find("](") {
+            let tail = &rest[at + 2..];
+            let end = tail.find(')').unwrap_or(tail.len());
+            let target = &tail[..end];
+            rest = &tail[end..];
+            if target.contains("://") || target.starts_with('#') || target.starts_with("mailto:") {
+                continue;
+            }
+            let file = target.split('#').next().unwrap();
+            if !root.join(file).exists() {
+                bad.push(format!("README.md:{}: {target}", i + 1));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "links to missing files:\n{}", bad.join("\n"));
 }
