@@ -102,7 +102,10 @@ fn the_readme_is_a_short_front_page_whose_links_resolve() {
     let root = root();
     let text = std::fs::read_to_string(root.join("README.md")).unwrap();
     let lines = text.lines().count();
-    assert!(lines < 150, "README.md has {lines} lines; the guide (docs/) takes the rest");
+    assert!(
+        lines < 150,
+        "README.md has {lines} lines; the guide (docs/) takes the rest"
+    );
     // The CI's test command, exactly.
     assert!(text.contains("\ncargo test --release --workspace\n"));
     let mut bad = Vec::new();
@@ -122,5 +125,9 @@ fn the_readme_is_a_short_front_page_whose_links_resolve() {
             }
         }
     }
-    assert!(bad.is_empty(), "links to missing files:\n{}", bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "links to missing files:\n{}",
+        bad.join("\n")
+    );
 }
