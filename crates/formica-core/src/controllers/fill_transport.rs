@@ -43,11 +43,12 @@ use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
 
 /// Which behaviour pushes once filling is over.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Pusher {
     /// The `occlusion` controller (parameters in `push`).
@@ -60,7 +61,8 @@ pub enum Pusher {
 }
 
 /// What an attached robot does with its wheels (they stay on the floor, issue 10).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum AttachedDrive {
     /// Wheels locked (zero wheel speed): brakes with up to the drive force.
@@ -80,7 +82,8 @@ pub enum AttachedDrive {
 
 /// Parameters of `fill-transport`: `fill` and `push` are the parameter tables of `filling` and
 /// `occlusion`.
-#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
     /// Filling-phase parameters (as `filling`; default `object_reach = 0.21`, so attached
