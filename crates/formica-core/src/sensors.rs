@@ -56,7 +56,8 @@ pub struct Readings {
     pub light: Vec<f32>,
     /// Own pose from the positioning sensor.
     pub pose: Pose,
-    /// The object's centre in the world frame, if the robot has the beacon and is in range.
+    /// The centre of the nearest movable object in the world frame (of the target object when
+    /// none is movable), if the robot has the beacon and is within range of it.
     pub beacon: Option<Vec2>,
     /// Camera blobs, nearest first, at most [`MAX_BLOBS`] (empty without a camera).
     pub blobs: Vec<Blob>,
@@ -146,13 +147,14 @@ pub struct SenseContext<'a> {
     /// Lights.
     pub lights: &'a [Light],
     /// Height of the body behind a tag.
-    pub height: &'a dyn Fn(Tag) -> f32,
+    pub height: &'a (dyn Fn(Tag) -> f32 + Sync),
     /// Colour of a tag as cameras see it (robots: their LEDs, `Off` when unlit; walls: grey).
-    pub color: &'a dyn Fn(Tag) -> Color,
+    pub color: &'a (dyn Fn(Tag) -> Color + Sync),
     /// Centre and radius of each robot (by index; unreleased robots are never asked).
     pub robots: &'a [(Vec2, f32)],
-    /// The object beacon: the target object's centre.
-    pub beacon: Option<Vec2>,
+    /// The object beacons: the movable objects' centres (the target object's when none is
+    /// movable).
+    pub beacons: &'a Beacons,
     /// Height of the tallest robot (m): beyond where a light ray rises above it, robots need
     /// not be checked.
     pub robot_height: f32,
@@ -189,6 +191,128 @@ pub fn sight_blocked(
     body_height > h(t_in).min(h(t_out))
 }
 
+/// Points (the object beacons) and a grid of them that finds the nearest to a robot in about
+/// constant time, however many there are.
+#[derive(Debug, Default, Clone)]
+pub struct Beacons {
+    points: Vec<Vec2>,
+    min: Vec2,
+    cell: f32,
+    nx: usize,
+    ny: usize,
+    /// `starts[c]..starts[c + 1]` index `order` for cell `c`.
+    starts: Vec<u32>,
+    /// Point indices sorted by cell.
+    order: Vec<u32>,
+}
+
+impl Beacons {
+    /// Sets the points (and rebuilds the grid).
+    pub fn set(&mut self, points: impl IntoIterator<Item = Vec2>) {
+        self.points.clear();
+        self.points.extend(points);
+        self.starts.clear();
+        self.order.clear();
+        let n = self.points.len();
+        if n <= 4 {
+            return;
+        }
+        let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        for p in &self.points {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let span = (hi - lo).max(Vec2::splat(1e-3));
+        // About one point per cell.
+        self.cell = (span.x * span.y / n as f32).sqrt().max(span.x.max(span.y) / 1024.0);
+        self.min = lo;
+        self.nx = (span.x / self.cell) as usize + 1;
+        self.ny = (span.y / self.cell) as usize + 1;
+        self.starts.resize(self.nx * self.ny + 1, 0);
+        let cells: Vec<usize> = self.points.iter().map(|p| self.cell_of(*p)).collect();
+        for &c in &cells {
+            self.starts[c + 1] += 1;
+        }
+        for c in 0..self.nx * self.ny {
+            self.starts[c + 1] += self.starts[c];
+        }
+        let mut fill = self.starts.clone();
+        self.order.resize(n, 0);
+        for (i, &c) in cells.iter().enumerate() {
+            self.order[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+    }
+
+    /// The points.
+    pub fn points(&self) -> &[Vec2] {
+        &self.points
+    }
+
+    fn cell_xy(&self, p: Vec2) -> (usize, usize) {
+        let d = (p - self.min) / self.cell;
+        (
+            (d.x.max(0.0) as usize).min(self.nx - 1),
+            (d.y.max(0.0) as usize).min(self.ny - 1),
+        )
+    }
+
+    fn cell_of(&self, p: Vec2) -> usize {
+        let (x, y) = self.cell_xy(p);
+        y * self.nx + x
+    }
+
+    /// The point nearest to `p` (the first in order among equally near ones).
+    pub fn nearest(&self, p: Vec2) -> Option<Vec2> {
+        let better = |best: Option<(f32, u32)>, i: u32| {
+            let d = (self.points[i as usize] - p).length_squared();
+            match best {
+                Some((bd, bi)) if (bd, bi) <= (d, i) => best,
+                _ => Some((d, i)),
+            }
+        };
+        let mut best = None;
+        if self.starts.is_empty() {
+            for i in 0..self.points.len() {
+                best = better(best, i as u32);
+            }
+            return best.map(|(_, i)| self.points[i as usize]);
+        }
+        let (cx, cy) = self.cell_xy(p);
+        for k in 0..self.nx.max(self.ny) {
+            let (x0, x1) = (cx.saturating_sub(k), (cx + k).min(self.nx - 1));
+            let (y0, y1) = (cy.saturating_sub(k), (cy + k).min(self.ny - 1));
+            for y in y0..=y1 {
+                let edge_row = y + k == cy || y == cy + k;
+                for x in x0..=x1 {
+                    // Only the ring at Chebyshev distance k (the inside was searched).
+                    if !edge_row && x + k != cx && x != cx + k {
+                        continue;
+                    }
+                    let c = y * self.nx + x;
+                    for &i in &self.order[self.starts[c] as usize..self.starts[c + 1] as usize] {
+                        best = better(best, i);
+                    }
+                }
+            }
+            // Every point not yet seen lies outside the searched square of cells.
+            let lo = self.min + Vec2::new(x0 as f32, y0 as f32) * self.cell;
+            let hi = self.min + Vec2::new(x1 as f32 + 1.0, y1 as f32 + 1.0) * self.cell;
+            let inside = (p - lo).min(hi - p);
+            let all = x0 == 0 && y0 == 0 && x1 == self.nx - 1 && y1 == self.ny - 1;
+            if let Some((bd, _)) = best {
+                let margin = inside.x.min(inside.y);
+                if all || (margin > 0.0 && bd < margin * margin) {
+                    break;
+                }
+            } else if all {
+                break;
+            }
+        }
+        best.map(|(_, i)| self.points[i as usize])
+    }
+}
+
 /// Per-robot scratch space reused across ticks (no allocation in the hot loop).
 #[derive(Debug, Default)]
 pub struct Scratch {
@@ -223,8 +347,13 @@ pub fn sense(
         rng.add(pose.y, nz.position_noise),
         rng.angle(pose.theta, nz.heading_noise),
     );
-    out.beacon = match ctx.beacon {
-        Some(b) if needs.beacon && (b - center).length() <= cfg.beacon_range => Some(Vec2::new(
+    let beacon = if needs.beacon {
+        ctx.beacons.nearest(center)
+    } else {
+        None
+    };
+    out.beacon = match beacon {
+        Some(b) if (b - center).length() <= cfg.beacon_range => Some(Vec2::new(
             rng.add(b.x, nz.beacon_noise),
             rng.add(b.y, nz.beacon_noise),
         )),
