@@ -92,13 +92,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if a.max_frames == 0 {
         return Err(CliError::Input("--max-frames: expected at least 1".into()));
     }
-    if let Some(d) = a.duration {
-        if !(d > 0.0 && d.is_finite()) {
-            return Err(CliError::Input(format!(
-                "--duration: expected a positive number of seconds, got {d}"
-            )));
-        }
-    }
+    crate::check_duration(a.duration)?;
+    crate::check_seed(a.seed)?;
     crate::check_controller(a.controller.as_deref())?;
     let replay = match (&a.db, a.trial) {
         (Some(db), Some(n)) => Some(Replayer::open(db)?.trial(n)?),

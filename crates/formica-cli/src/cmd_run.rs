@@ -55,18 +55,35 @@ pub struct Args {
     pub trial: Option<String>,
 }
 
-/// Parses a seed range `A..B` (inclusive; `A..=B` also accepted).
-pub fn seed_range(s: &str) -> Option<std::ops::RangeInclusive<u64>> {
-    let (a, b) = s.split_once("..")?;
-    let a: u64 = a.trim().parse().ok()?;
-    let b: u64 = b.trim().trim_start_matches('=').parse().ok()?;
-    (a <= b).then_some(a..=b)
+/// Parses a seed range `A..B` (inclusive; `A..=B` also accepted) of at most
+/// [`MAX_TRIALS`](formica::limits::MAX_TRIALS) seeds, each at most
+/// [`MAX_SEED`](formica::limits::MAX_SEED); the error says what was expected.
+pub fn seed_range(s: &str) -> Result<std::ops::RangeInclusive<u64>, String> {
+    use formica::limits::{MAX_SEED, MAX_TRIALS};
+    let expected = || format!("expected A..B with 0 <= A <= B <= {MAX_SEED}, got `{s}`");
+    let (a, b) = s.split_once("..").ok_or_else(expected)?;
+    let a: u64 = a.trim().parse().map_err(|_| expected())?;
+    let b: u64 = b
+        .trim()
+        .trim_start_matches('=')
+        .trim()
+        .parse()
+        .map_err(|_| expected())?;
+    if a > b || b > MAX_SEED {
+        return Err(expected());
+    }
+    if b - a >= MAX_TRIALS {
+        return Err(format!(
+            "`{s}` is {} seeds; at most {MAX_TRIALS} trials a call (split the range)",
+            (b - a).saturating_add(1)
+        ));
+    }
+    Ok(a..=b)
 }
 
 /// Parses `--seeds A..B`.
 pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
-    seed_range(s)
-        .ok_or_else(|| CliError::Input(format!("--seeds: expected A..B with A <= B, got `{s}`")))
+    seed_range(s).map_err(|m| CliError::Input(format!("--seeds: {m}")))
 }
 
 /// Loads the scenario with the `--set` overrides applied.
@@ -141,18 +158,17 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let sc = load(path, &a.set)?;
     crate::check_controller(a.controller.as_deref())?;
     if let (Some(w), false) = (sc.physics_warning(), a.force) {
-        return Err(CliError::Input(format!(
-            "{}: {w}; --force runs it anyway",
-            sc.file
-        )));
+        // At the key that sets the step: the sub-steps if the file fixes them, else the rate.
+        let key = match sc.spec.run.substeps {
+            formica::scenario::Substeps::Fixed(_) => "run.substeps",
+            formica::scenario::Substeps::Auto => "run.tick_hz",
+        };
+        return Err(sc
+            .error_at_key(key, format!("{w}; --force runs it anyway"))
+            .into());
     }
-    if let Some(d) = a.duration {
-        if !(d > 0.0 && d.is_finite()) {
-            return Err(CliError::Input(format!(
-                "--duration: expected a positive number of seconds, got {d}"
-            )));
-        }
-    }
+    crate::check_duration(a.duration)?;
+    crate::check_seed(a.seed)?;
     match &a.seeds {
         Some(s) => run_many(&a, &sc, parse_seeds(s)?),
         None => run_one(&a, &sc, &overrides(&a, a.seed), None),

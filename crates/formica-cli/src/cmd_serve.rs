@@ -74,13 +74,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
             ))
         }
     };
-    if let Some(d) = a.duration {
-        if !(d > 0.0 && d.is_finite()) {
-            return Err(CliError::Input(format!(
-                "--duration: expected a positive number of seconds, got {d}"
-            )));
-        }
-    }
+    crate::check_duration(a.duration)?;
+    crate::check_seed(a.seed)?;
     let opts = ServeOptions {
         host: a.host,
         port: a.port,

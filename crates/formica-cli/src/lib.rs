@@ -39,7 +39,7 @@ mod cmd_sweep;
 mod gallery;
 mod output;
 mod plots;
-mod provenance;
+pub mod provenance;
 mod replay;
 mod stats;
 mod store;
@@ -84,6 +84,30 @@ pub(crate) enum CliError {
     Input(String),
     /// Something else failed (I/O, ...).
     Other(anyhow::Error),
+}
+
+/// `--duration`: more than 0 and at most [`formica::limits::MAX_DURATION_S`].
+pub(crate) fn check_duration(d: Option<f32>) -> Result<(), CliError> {
+    let max = formica::limits::MAX_DURATION_S;
+    match d {
+        Some(d) if !(d > 0.0 && d <= max) => Err(CliError::Input(format!(
+            "--duration: expected more than 0 and at most {} seconds, got {d}",
+            formica::limits::show(max)
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// `--seed`: at most [`formica::limits::MAX_SEED`] (seeds are stored as 64-bit signed
+/// integers, as TOML writes them).
+pub(crate) fn check_seed(s: Option<u64>) -> Result<(), CliError> {
+    let max = formica::limits::MAX_SEED;
+    match s {
+        Some(s) if s > max => Err(CliError::Input(format!(
+            "--seed: expected 0 to {max}, got {s}"
+        ))),
+        _ => Ok(()),
+    }
 }
 
 impl From<formica::ScenarioError> for CliError {

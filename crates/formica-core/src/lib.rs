@@ -23,6 +23,7 @@ pub mod controller;
 pub mod controllers;
 pub mod experiment;
 pub mod geometry;
+pub mod limits;
 pub mod metrics;
 pub mod noise;
 pub mod ops;
