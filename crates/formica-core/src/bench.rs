@@ -209,7 +209,7 @@ fn tiled(workload: Workload, robots: usize, with_robots: bool) -> Result<Scenari
             "height = {height}\nmass = {mass}\nfloor_mu = {floor_mu}\nmovable = true\ncolor = \"green\"\n"
         );
     }
-    text.push_str("\n[run]\ntick_hz = 10\nduration_s = 1e9\n\n[stop]\non_goal = false\non_wall = false\n");
+    text.push_str("\n[run]\ntick_hz = 10\nduration_s = 1e6\n\n[stop]\non_goal = false\non_wall = false\n");
     let name = format!("<bench {} {robots}>", workload.name());
     let sc = Scenario::parse(&text, &name)?;
     if !with_robots {
