@@ -10,7 +10,9 @@ use crate::robot::RobotModel;
 use crate::scenario::{
     steps_for, Color, Placement, Scenario, ScenarioError, SensorConfig, Substeps,
 };
-use crate::sensors::{sense, Beacons, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds};
+use crate::sensors::{
+    sense, Beacons, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds, Shadows,
+};
 use rand::{Rng, SeedableRng};
 use std::sync::Arc;
 use std::time::Instant;
@@ -180,6 +182,8 @@ pub struct World {
     pub arena: (Vec2, Vec2),
     near: Vec<Nearby>,
     beacons: Beacons,
+    /// Per light, the walls and objects by direction (with many fixtures only).
+    shadows: Vec<Shadows>,
     buffers: SenseBuffers,
     /// Threads for sensing and control (`None`: this thread only).
     pool: Option<Arc<rayon::ThreadPool>>,
@@ -205,6 +209,9 @@ struct SenseBuffers {
     discs: Vec<(Vec2, f32)>,
     leds: Vec<Color>,
 }
+
+/// Worlds with at least this many walls and objects index them by direction from each light.
+const SHADOWS_MIN_FIXTURES: usize = 12;
 
 /// Swarms at least this large sense and control on several threads when the caller allows
 /// it ([`threads_for`]); below, one tick is too short for the hand-over to pay.
@@ -445,6 +452,7 @@ impl World {
             arena: (c, Vec2::new(w, h)),
             near: Vec::new(),
             beacons: Beacons::default(),
+            shadows: Vec::new(),
             buffers: SenseBuffers::default(),
             pool: None,
             timing: None,
@@ -661,6 +669,18 @@ impl World {
     /// generator, so the result does not depend on the number of threads).
     fn sense(&mut self) {
         self.physics.rebuild_index();
+        // With many walls and objects, each light's occlusion test asks only those in the
+        // robot's direction (the same exact test: results do not change).
+        let fixtures = self.physics.fixtures().len();
+        if fixtures >= SHADOWS_MIN_FIXTURES {
+            self.shadows.resize_with(self.lights.len(), Shadows::default);
+            let physics = &self.physics;
+            for (sh, l) in self.shadows.iter_mut().zip(&self.lights) {
+                sh.build(l.position, (0..fixtures).map(|i| physics.fixture_box(i)));
+            }
+        } else {
+            self.shadows.clear();
+        }
         // Every movable object carries a beacon (the target object when none is movable).
         let physics = &self.physics;
         let any_movable = self.objects.iter().any(|o| o.movable);
@@ -708,6 +728,7 @@ impl World {
             robots: &buf.discs,
             beacons: &self.beacons,
             robot_height: groups.iter().map(|g| g.model.height).fold(0.0, f32::max),
+            shadows: &self.shadows,
         };
         let specs: Vec<(&RobotModel, SensorNeeds, &SensorConfig)> = groups
             .iter()
