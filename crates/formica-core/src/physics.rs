@@ -115,8 +115,19 @@ pub struct Nearby {
     /// What it belongs to.
     pub tag: Tag,
     collider: ColliderHandle,
-    /// A robot's centre (as of the last index rebuild) and radius; radius 0 for fixtures.
-    disc: (Vec2, f32),
+    /// Where it was at the last index rebuild, to skip ray casts that surely miss.
+    bound: Bound,
+}
+
+/// What a [`Nearby`] knows of its collider's place at the last index rebuild.
+#[derive(Debug, Clone, Copy)]
+enum Bound {
+    /// Nothing.
+    Unknown,
+    /// A robot: centre and radius.
+    Disc(Vec2, f32),
+    /// A wall or object: its bounding box.
+    Box(Vec2, Vec2),
 }
 
 /// A fixed joint holding a robot to a body.
@@ -183,6 +194,8 @@ struct NeighbourIndex {
     /// Walls and objects by coarse cell, so that a query looks at the few near it.
     fixture_grid: FixtureGrid,
     max_radius: f32,
+    /// Whether no body has moved since the last rebuild (the bounds in [`Nearby`] hold).
+    fresh: bool,
     /// The area the grid covers (the arena and its walls); robots outside it fall in its
     /// border cells.
     area: Option<(Vec2, Vec2)>,
@@ -330,24 +343,45 @@ impl Motor {
     }
 }
 
-/// Whether the ray from `origin` along the unit vector `dir`, `max_dist` long, may meet the
-/// disc (centre, radius) of a nearby robot: false only when it surely misses (by more than
-/// 1 mm, far above rounding), so that the exact ray cast is skipped. Always true for radius 0
-/// (not a disc, or not known).
+/// Whether the ray from `origin` along the unit vector `dir`, `max_dist` long, may meet a
+/// collider that was at `bound`: false only when it surely misses (by more than 1 mm, far
+/// above rounding), so that the exact ray cast can be skipped.
 #[inline]
-fn disc_may_meet((c, r): (Vec2, f32), origin: Vec2, dir: Vec2, max_dist: f32) -> bool {
-    if r <= 0.0 {
-        return true;
+fn may_meet(bound: Bound, origin: Vec2, dir: Vec2, max_dist: f32) -> bool {
+    const PAD: f32 = 1e-3;
+    match bound {
+        Bound::Unknown => true,
+        Bound::Disc(c, r) => {
+            let rel = c - origin;
+            let along = rel.dot(dir);
+            let reach = r + PAD;
+            if along < -reach || along > max_dist + reach {
+                return false;
+            }
+            let t = along.clamp(0.0, max_dist.max(0.0));
+            let d = rel - dir * t;
+            d.dot(d) <= reach * reach
+        }
+        Bound::Box(lo, hi) => {
+            let (lo, hi) = (lo - Vec2::splat(PAD), hi + Vec2::splat(PAD));
+            let (mut t0, mut t1) = (0.0f32, max_dist + PAD);
+            for (o, d, l, h) in [(origin.x, dir.x, lo.x, hi.x), (origin.y, dir.y, lo.y, hi.y)] {
+                if d.abs() < 1e-9 {
+                    if o < l || o > h {
+                        return false;
+                    }
+                } else {
+                    let (a, b) = ((l - o) / d, (h - o) / d);
+                    t0 = t0.max(a.min(b));
+                    t1 = t1.min(a.max(b));
+                    if t0 > t1 + PAD {
+                        return false;
+                    }
+                }
+            }
+            true
+        }
     }
-    let rel = c - origin;
-    let along = rel.dot(dir);
-    let reach = r + 1e-3;
-    if along < -reach || along > max_dist + reach {
-        return false;
-    }
-    let t = along.clamp(0.0, max_dist.max(0.0));
-    let d = rel - dir * t;
-    d.dot(d) <= reach * reach
 }
 
 /// The vector `v` turned by +90 degrees.
@@ -460,7 +494,7 @@ impl Physics {
         self.fixtures.push(Nearby {
             tag,
             collider,
-            disc: (Vec2::ZERO, 0.0),
+            bound: Bound::Unknown,
         });
         BodyId {
             body,
@@ -503,7 +537,7 @@ impl Physics {
         self.fixtures.push(Nearby {
             tag: Tag::Object(index),
             collider,
-            disc: (Vec2::ZERO, 0.0),
+            bound: Bound::Unknown,
         });
         let b = &self.world.bodies[body];
         let com = b.local_center_of_mass();
@@ -606,7 +640,7 @@ impl Physics {
             Nearby {
                 tag: Tag::Robot(index),
                 collider,
-                disc: (Vec2::ZERO, 0.0),
+                bound: Bound::Unknown,
             },
             model.radius,
         ));
@@ -916,6 +950,7 @@ impl Physics {
     /// Call [`Physics::drive`] for every robot first.
     pub fn step(&mut self) {
         self.set_floor_friction();
+        self.index.fresh = false;
         self.world.step();
         let p = &self.world.integration_parameters;
         self.last_step = (p.dt, p.num_solver_iterations);
@@ -960,6 +995,10 @@ impl Physics {
                 .push(self.world.colliders[f.collider].compute_aabb());
         }
         idx.fixture_grid.build(&idx.fixture_boxes, idx.area);
+        for (f, b) in self.fixtures.iter_mut().zip(&idx.fixture_boxes) {
+            f.bound = Bound::Box(b.mins, b.maxs);
+        }
+        idx.fresh = true;
         idx.items.clear();
         let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
         idx.max_radius = 0.0;
@@ -1058,7 +1097,7 @@ impl Physics {
             for &(p, slot) in &idx.items[a..b] {
                 let (mut n, r) = self.robots[slot as usize];
                 if (p.x - center.x).abs() <= radius + r && (p.y - center.y).abs() <= radius + r {
-                    n.disc = (p, r);
+                    n.bound = Bound::Disc(p, r);
                     out.push(n);
                 }
             }
@@ -1174,7 +1213,7 @@ impl Physics {
                     let t = (p - a).dot(dir).clamp(0.0, len);
                     let d = p - (a + dir * t);
                     let reach = r + 1e-3;
-                    n.disc = (p, r);
+                    n.bound = Bound::Disc(p, r);
                     if d.dot(d) <= reach * reach && f(n) {
                         return true;
                     }
@@ -1201,7 +1240,7 @@ impl Physics {
                 continue;
             }
             let limit = best.map_or(max_dist, |b| b.1);
-            if !disc_may_meet(c.disc, origin, dir, limit) {
+            if self.index.fresh && !may_meet(c.bound, origin, dir, limit) {
                 continue;
             }
             let col = &self.world.colliders[c.collider];
@@ -1221,7 +1260,7 @@ impl Physics {
 
     /// Distance along the ray at which it enters a collider, if within `max_dist`.
     pub fn ray_entry(&self, n: &Nearby, origin: Vec2, dir: Vec2, max_dist: f32) -> Option<f32> {
-        if !disc_may_meet(n.disc, origin, dir, max_dist) {
+        if self.index.fresh && !may_meet(n.bound, origin, dir, max_dist) {
             return None;
         }
         let col = &self.world.colliders[n.collider];

@@ -298,18 +298,32 @@ impl Beacons {
                     }
                 }
             }
-            // Every point not yet seen lies outside the searched square of cells.
+            // Every point not yet seen lies in a cell beyond a side of the searched square
+            // that has cells beyond it (the border cells hold the points beyond the grid too),
+            // so at least `margin` away (less 0.1 mm for rounding).
             let lo = self.min + Vec2::new(x0 as f32, y0 as f32) * self.cell;
             let hi = self.min + Vec2::new(x1 as f32 + 1.0, y1 as f32 + 1.0) * self.cell;
-            let inside = (p - lo).min(hi - p);
-            let all = x0 == 0 && y0 == 0 && x1 == self.nx - 1 && y1 == self.ny - 1;
+            let mut margin = f32::INFINITY;
+            if x0 > 0 {
+                margin = margin.min(p.x - lo.x);
+            }
+            if y0 > 0 {
+                margin = margin.min(p.y - lo.y);
+            }
+            if x1 + 1 < self.nx {
+                margin = margin.min(hi.x - p.x);
+            }
+            if y1 + 1 < self.ny {
+                margin = margin.min(hi.y - p.y);
+            }
+            if margin == f32::INFINITY {
+                break;
+            }
             if let Some((bd, _)) = best {
-                let margin = inside.x.min(inside.y);
-                if all || (margin > 0.0 && bd < margin * margin) {
+                let m = margin - 1e-4;
+                if m > 0.0 && bd < m * m {
                     break;
                 }
-            } else if all {
-                break;
             }
         }
         best.map(|(_, i)| self.points[i as usize])
@@ -441,6 +455,8 @@ pub struct Scratch {
     near: Vec<Nearby>,
     /// Colour scan: first hit per bin (distance, index into `near`).
     scan: Vec<(f32, usize)>,
+    /// Colour scan: the bins' ray directions.
+    rays: Vec<Vec2>,
 }
 
 /// Computes one robot's readings in place.
@@ -764,7 +780,12 @@ fn scan(
     ctx.physics.nearby(center, range, &mut scratch.near);
     scratch.scan.clear();
     scratch.scan.resize(bins, (f32::INFINITY, usize::MAX));
-    let ray = |i: usize| ops::unit(pose.theta + width * i as f32);
+    scratch.rays.clear();
+    scratch
+        .rays
+        .extend((0..bins).map(|i| ops::unit(pose.theta + width * i as f32)));
+    let rays = &scratch.rays;
+    let ray = |i: usize| rays[i];
     for (k, n) in scratch.near.iter().enumerate() {
         if n.tag == me {
             continue;
@@ -821,5 +842,69 @@ fn scan(
         }
         out.scan_color.push(color);
         out.scan_range.push(d.clamp(0.0, range));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The grid search finds what a scan of every point finds (the first of equally near),
+    /// for points inside and far outside the grid.
+    #[test]
+    fn nearest_beacon_matches_a_full_scan() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+        for n in [1, 3, 5, 17, 200] {
+            let pts: Vec<Vec2> = (0..n)
+                .map(|_| Vec2::new(rng.random_range(-20.0..20.0), rng.random_range(-5.0..5.0)))
+                .collect();
+            let mut b = Beacons::default();
+            b.set(pts.iter().copied());
+            for _ in 0..2000 {
+                let p = Vec2::new(rng.random_range(-40.0..40.0), rng.random_range(-30.0..30.0));
+                let mut best = (f32::MAX, 0);
+                for (i, q) in pts.iter().enumerate() {
+                    let d = (*q - p).length_squared();
+                    if d < best.0 {
+                        best = (d, i);
+                    }
+                }
+                assert_eq!(b.nearest(p), Some(pts[best.1]), "{n} points, at {p:?}");
+            }
+        }
+    }
+
+    /// The direction index offers every fixture a ray to the light enters.
+    #[test]
+    fn shadows_offer_every_box_the_ray_meets() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(4);
+        let boxes: Vec<(Vec2, Vec2)> = (0..60)
+            .map(|_| {
+                let c = Vec2::new(rng.random_range(-30.0..30.0), rng.random_range(-20.0..20.0));
+                let h = Vec2::new(rng.random_range(0.05..2.0), rng.random_range(0.05..2.0));
+                (c - h, c + h)
+            })
+            .collect();
+        let light = Vec2::new(25.0, 0.0);
+        let mut sh = Shadows::default();
+        sh.build(light, boxes.iter().copied());
+        for _ in 0..3000 {
+            let p = Vec2::new(rng.random_range(-31.0..31.0), rng.random_range(-21.0..21.0));
+            let dist = (light - p).length();
+            let mut offered = vec![false; boxes.len()];
+            sh.any_toward(p, dist, |i| {
+                offered[i] = true;
+                false
+            });
+            for (i, (lo, hi)) in boxes.iter().enumerate() {
+                // Sample the segment: a point inside the box must have been offered.
+                let meets = (0..=400).any(|k| {
+                    let q = p + (light - p) * (k as f32 / 400.0);
+                    q.cmpge(*lo).all() && q.cmple(*hi).all()
+                });
+                assert!(!meets || offered[i], "box {i} from {p:?}");
+            }
+        }
     }
 }
