@@ -67,7 +67,7 @@ struct Line {
     /// Fraction of objects moved more than 0.1 m by the end of the first trial.
     objects_moved: f64,
     peak_memory_mib: Option<f64>,
-    /// Peak memory of the same world without robots (MiB).
+    /// Peak memory of the same world without robots while it runs (MiB).
     empty_memory_mib: Option<f64>,
     /// (peak - empty) / robots (KiB).
     memory_per_robot_kib: Option<f64>,
@@ -129,16 +129,18 @@ fn build(
 
 /// Measures one size in this process.
 fn measure(workload: Workload, n: usize, a: &Args) -> Result<Line, CliError> {
-    // The same world without robots, for the memory per robot.
-    reset_peak_memory();
+    // The same world without robots, for the memory per robot. Peaks are taken from when the
+    // world is built (the scenario text and its parse are dropped by then) to the end of its
+    // run: what the world holds and allocates while it runs.
     let empty_memory_mib = {
         let mut w = World::new(&workload.empty_scenario(n)?, &Overrides::default())?;
+        reset_peak_memory();
         for _ in 0..5 {
             w.step();
         }
         peak_memory_mib()
     };
-    reset_peak_memory();
+    let mut peak = None;
     let (mut ticks, mut trials, mut setup_s) = (0u64, 0u64, 0.0);
     let mut timing = formica::world::StepTiming::default();
     let (mut steps, mut moved, mut first_digest) = (0u64, 0.0, String::new());
@@ -146,6 +148,9 @@ fn measure(workload: Workload, n: usize, a: &Args) -> Result<Line, CliError> {
         let t0 = std::time::Instant::now();
         let mut w = build(workload, n, trials + 1, a)?;
         setup_s += t0.elapsed().as_secs_f64();
+        if trials == 0 {
+            reset_peak_memory();
+        }
         let start: Vec<_> = (0..w.objects.len()).map(|i| w.object_center(i)).collect();
         w.measure_time();
         for _ in 0..a.ticks {
@@ -158,6 +163,7 @@ fn measure(workload: Workload, n: usize, a: &Args) -> Result<Line, CliError> {
         timing.control_s += t.control_s;
         ticks += a.ticks;
         if trials == 0 {
+            peak = peak_memory_mib();
             first_digest = digest(&w);
             let far = start
                 .iter()
@@ -174,7 +180,6 @@ fn measure(workload: Workload, n: usize, a: &Args) -> Result<Line, CliError> {
     }
     let wall_s = timing.physics_s + timing.sense_s + timing.control_s;
     let rts = (n as f64 * ticks as f64) / wall_s.max(1e-12);
-    let peak = peak_memory_mib();
     Ok(Line {
         workload: workload.name().into(),
         robots: n,
