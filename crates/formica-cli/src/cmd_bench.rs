@@ -232,6 +232,12 @@ fn measure_child(workload: Workload, n: usize, a: &Args) -> Result<Line, CliErro
         .map_err(CliError::from)
 }
 
+/// Most robots of one benchmark size.
+const MAX_ROBOTS: usize = 1_000_000;
+
+/// Most threads of one benchmark world.
+const MAX_THREADS: usize = 256;
+
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
     let workload = Workload::from_name(&a.workload).ok_or_else(|| {
@@ -246,6 +252,17 @@ pub fn main(a: Args) -> Result<(), CliError> {
         return Err(CliError::Input(
             "--robots: expected positive counts, e.g. 20,100,1000".into(),
         ));
+    }
+    if a.robots.iter().any(|&n| n > MAX_ROBOTS) {
+        return Err(CliError::Input(format!(
+            "--robots: at most {MAX_ROBOTS} robots a size"
+        )));
+    }
+    if !(1..=MAX_THREADS).contains(&a.threads) {
+        return Err(CliError::Input(format!(
+            "--threads: expected 1 to {MAX_THREADS}, got {}",
+            a.threads
+        )));
     }
     if a.ticks == 0 {
         return Err(CliError::Input(

@@ -780,12 +780,17 @@ fn scan(
     ctx.physics.nearby(center, range, &mut scratch.near);
     scratch.scan.clear();
     scratch.scan.resize(bins, (f32::INFINITY, usize::MAX));
+    // Each bin's ray direction, computed when first needed (NaN until then).
     scratch.rays.clear();
-    scratch
-        .rays
-        .extend((0..bins).map(|i| ops::unit(pose.theta + width * i as f32)));
-    let rays = &scratch.rays;
-    let ray = |i: usize| rays[i];
+    scratch.rays.resize(bins, Vec2::NAN);
+    let rays = std::cell::RefCell::new(std::mem::take(&mut scratch.rays));
+    let ray = |i: usize| {
+        let mut r = rays.borrow_mut();
+        if r[i].x.is_nan() {
+            r[i] = ops::unit(pose.theta + width * i as f32);
+        }
+        r[i]
+    };
     for (k, n) in scratch.near.iter().enumerate() {
         if n.tag == me {
             continue;
@@ -823,6 +828,7 @@ fn scan(
             }
         }
     }
+    scratch.rays = rays.into_inner();
     let step = cfg.scan_step;
     for &(t, k) in &scratch.scan {
         if k == usize::MAX {
