@@ -110,12 +110,7 @@ fn digest(w: &World) -> String {
     format!("{h:016x}")
 }
 
-fn build(
-    workload: Workload,
-    n: usize,
-    seed: u64,
-    a: &Args,
-) -> Result<World, CliError> {
+fn build(workload: Workload, n: usize, seed: u64, a: &Args) -> Result<World, CliError> {
     let sc = workload.scenario(n)?;
     let ov = Overrides {
         seed: Some(seed),
@@ -123,7 +118,8 @@ fn build(
         ..Overrides::default()
     };
     let mut w = World::new(&sc, &ov)?;
-    w.set_threads(a.threads).map_err(|e| CliError::Other(anyhow::anyhow!(e)))?;
+    w.set_threads(a.threads)
+        .map_err(|e| CliError::Other(anyhow::anyhow!(e)))?;
     Ok(w)
 }
 

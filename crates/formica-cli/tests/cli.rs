@@ -185,7 +185,16 @@ fn missing_file_is_an_input_error() {
 #[test]
 fn bench_prints_json_lines() {
     let out = formica()
-        .args(["bench", "--robots", "10,40", "--ticks", "5", "--min-time", "0", "--json"])
+        .args([
+            "bench",
+            "--robots",
+            "10,40",
+            "--ticks",
+            "5",
+            "--min-time",
+            "0",
+            "--json",
+        ])
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -200,7 +209,13 @@ fn bench_prints_json_lines() {
     assert!(lines[1].get("peak_memory_mib").is_some());
     assert_eq!(lines[1]["workload"], "transport");
     assert_eq!(lines[1]["threads"], 1);
-    for key in ["physics_s", "sense_s", "control_s", "us_per_robot_tick", "setup_s"] {
+    for key in [
+        "physics_s",
+        "sense_s",
+        "control_s",
+        "us_per_robot_tick",
+        "setup_s",
+    ] {
         assert!(lines[1][key].as_f64().unwrap() >= 0.0, "{key}");
     }
 }
@@ -214,9 +229,12 @@ fn bench_workloads_and_threads() {
             .args(args)
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().last().unwrap())
-            .unwrap()
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().last().unwrap()).unwrap()
     };
     for w in ["fill-transport", "random-walk"] {
         assert_eq!(line(&["--workload", w, "--robots", "30"])["workload"], w);

@@ -209,7 +209,9 @@ fn tiled(workload: Workload, robots: usize, with_robots: bool) -> Result<Scenari
             "height = {height}\nmass = {mass}\nfloor_mu = {floor_mu}\nmovable = true\ncolor = \"green\"\n"
         );
     }
-    text.push_str("\n[run]\ntick_hz = 10\nduration_s = 1e6\n\n[stop]\non_goal = false\non_wall = false\n");
+    text.push_str(
+        "\n[run]\ntick_hz = 10\nduration_s = 1e6\n\n[stop]\non_goal = false\non_wall = false\n",
+    );
     let name = format!("<bench {} {robots}>", workload.name());
     let sc = Scenario::parse(&text, &name)?;
     if !with_robots {
@@ -221,7 +223,10 @@ fn tiled(workload: Workload, robots: usize, with_robots: bool) -> Result<Scenari
     let radius = crate::robot::RobotModel::khepera4().radius;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(12);
     let mut poses: Vec<[f32; 3]> = Vec::with_capacity(robots);
-    let (lo_y, hi_y) = (-TILE[1] / 2.0 + radius + 0.06, TILE[1] / 2.0 - radius - 0.06);
+    let (lo_y, hi_y) = (
+        -TILE[1] / 2.0 + radius + 0.06,
+        TILE[1] / 2.0 - radius - 0.06,
+    );
     for (k, c) in centres.iter().enumerate() {
         let n = per.min(robots - k * per);
         let first = poses.len();
@@ -345,8 +350,14 @@ mod tests {
                 shipped.object_parts(0).unwrap(),
                 "{name}"
             );
-            let (a, b) = (sc.spec.objects[k].get_ref(), shipped.spec.objects[0].get_ref());
-            assert_eq!((a.mass, a.floor_mu, a.height), (b.mass, b.floor_mu, b.height));
+            let (a, b) = (
+                sc.spec.objects[k].get_ref(),
+                shipped.spec.objects[0].get_ref(),
+            );
+            assert_eq!(
+                (a.mass, a.floor_mu, a.height),
+                (b.mass, b.floor_mu, b.height)
+            );
         }
     }
 
@@ -354,12 +365,19 @@ mod tests {
     fn one_tile_is_the_seed_transport_set_up() {
         let sc = Workload::Transport.scenario(20).unwrap();
         let seed = Scenario::load(
-            concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/seed-transport.toml").as_ref(),
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../scenarios/seed-transport.toml"
+            )
+            .as_ref(),
         )
         .unwrap();
         assert_eq!(sc.spec.arena.size, seed.spec.arena.size);
         let (a, b) = (sc.spec.objects[0].get_ref(), seed.spec.objects[0].get_ref());
-        assert_eq!((a.at, a.mass, a.floor_mu, a.height), (b.at, b.mass, b.floor_mu, b.height));
+        assert_eq!(
+            (a.at, a.mass, a.floor_mu, a.height),
+            (b.at, b.mass, b.floor_mu, b.height)
+        );
         let (l, m) = (sc.spec.lights[0].get_ref(), seed.spec.lights[0].get_ref());
         assert_eq!((l.at, l.height, l.intensity), (m.at, m.height, m.intensity));
         assert_eq!(sc.robot_count(), 20);

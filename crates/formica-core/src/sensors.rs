@@ -227,7 +227,9 @@ impl Beacons {
         }
         let span = (hi - lo).max(Vec2::splat(1e-3));
         // About one point per cell.
-        self.cell = (span.x * span.y / n as f32).sqrt().max(span.x.max(span.y) / 1024.0);
+        self.cell = (span.x * span.y / n as f32)
+            .sqrt()
+            .max(span.x.max(span.y) / 1024.0);
         self.min = lo;
         self.nx = (span.x / self.cell) as usize + 1;
         self.ny = (span.y / self.cell) as usize + 1;

@@ -506,7 +506,11 @@ impl World {
             self.pool = None;
             return Ok(());
         }
-        if self.pool.as_ref().is_some_and(|p| p.current_num_threads() == threads) {
+        if self
+            .pool
+            .as_ref()
+            .is_some_and(|p| p.current_num_threads() == threads)
+        {
             return Ok(());
         }
         let pool = rayon::ThreadPoolBuilder::new()
@@ -673,7 +677,8 @@ impl World {
         // robot's direction (the same exact test: results do not change).
         let fixtures = self.physics.fixtures().len();
         if fixtures >= SHADOWS_MIN_FIXTURES {
-            self.shadows.resize_with(self.lights.len(), Shadows::default);
+            self.shadows
+                .resize_with(self.lights.len(), Shadows::default);
             let physics = &self.physics;
             for (sh, l) in self.shadows.iter_mut().zip(&self.lights) {
                 sh.build(l.position, (0..fixtures).map(|i| physics.fixture_box(i)));
@@ -689,7 +694,13 @@ impl World {
             self.objects
                 .iter()
                 .enumerate()
-                .filter(|&(i, o)| if any_movable { o.movable } else { Some(i) == target })
+                .filter(|&(i, o)| {
+                    if any_movable {
+                        o.movable
+                    } else {
+                        Some(i) == target
+                    }
+                })
                 .map(|(_, o)| physics.center_of_mass(o.body)),
         );
         let objects = &self.objects;

@@ -20,7 +20,12 @@ fn digest_of(sc: &Scenario, seed: u64, duration_s: Option<f32>) -> (u64, String)
 }
 
 /// [`digest_of`] with sensing and control on `threads` threads.
-fn digest_threads(sc: &Scenario, seed: u64, duration_s: Option<f32>, threads: usize) -> (u64, String) {
+fn digest_threads(
+    sc: &Scenario,
+    seed: u64,
+    duration_s: Option<f32>,
+    threads: usize,
+) -> (u64, String) {
     let opts = RunOptions {
         overrides: Overrides {
             seed: Some(seed),
