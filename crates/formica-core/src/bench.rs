@@ -142,7 +142,7 @@ pub fn tile_grid(tiles: usize) -> (usize, usize) {
             continue;
         }
         let spare = cols * rows - tiles;
-        let skew = aspect.ln().abs();
+        let skew = crate::ops::ln(aspect).abs();
         if (spare, skew) < (best.2, best.3) || (spare == best.2 && skew < best.3) {
             best = (cols, rows, spare, skew);
         }
