@@ -396,6 +396,10 @@ pub struct RunOptions {
     pub record: bool,
     /// With `record`: keep robot poses every this many ticks (object: every tick).
     pub robot_every: u64,
+    /// Threads for sensing and control within the world (0 or 1: the caller's thread only).
+    /// Results are bit-identical for any number; [`crate::world::threads_for`] says how many
+    /// pay for a swarm size.
+    pub threads: usize,
 }
 
 /// A run in progress: a world, its hooks and its clock. [`run`] drives one to the end; a viewer
@@ -418,7 +422,9 @@ impl Run {
     /// transport and filling metrics).
     pub fn new(sc: &Scenario, opts: &RunOptions) -> Result<Run, ScenarioError> {
         let started = std::time::Instant::now();
-        let world = World::new(sc, &opts.overrides)?;
+        let mut world = World::new(sc, &opts.overrides)?;
+        // Without threads (none can be started) the world runs on this one: the same results.
+        let _ = world.set_threads(opts.threads);
         let goal_radius = goal_radius(sc, &world);
         let hooks = sc.registry().build_loop_functions(sc, &world);
         let duration = opts.overrides.duration_s.unwrap_or(sc.spec.run.duration_s);

@@ -318,6 +318,11 @@ impl Sim {
             },
             record: false,
             robot_every: 1,
+            // Large swarms sense and control on every core (the same results).
+            threads: formica::world::threads_for(
+                sc.robot_count(),
+                std::thread::available_parallelism().map_or(1, |n| n.get()),
+            ),
         };
         Run::new(sc, &opts)
     }
