@@ -177,6 +177,8 @@ pub struct World {
     /// Arena centre and size.
     pub arena: (Vec2, Vec2),
     near: Vec<Nearby>,
+    /// Moving lights: index and schedule.
+    light_paths: Vec<(usize, crate::scenario::LightSpec)>,
 }
 
 fn splitmix(mut z: u64) -> u64 {
@@ -279,7 +281,15 @@ impl World {
                 position: Vec2::new(l.at[0], l.at[1]),
                 height: l.height,
                 intensity: l.intensity,
+                color: l.color,
             })
+            .collect();
+        let light_paths = spec
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| !l.get_ref().path.is_empty())
+            .map(|(i, l)| (i, l.get_ref().clone()))
             .collect();
 
         // Robot groups and placement.
@@ -374,6 +384,7 @@ impl World {
             seed,
             arena: (c, Vec2::new(w, h)),
             near: Vec::new(),
+            light_paths,
         };
         world.release();
         Ok(world)
@@ -398,6 +409,7 @@ impl World {
         }
         self.tick += 1;
         self.time_s = self.tick as f64 / self.tick_hz;
+        self.move_lights();
         self.sense();
         self.control();
     }
@@ -540,6 +552,17 @@ impl World {
             let body = self.physics.add_robot(model, r.start, i);
             self.robots[i].body = Some(body);
             self.robots[i].state = "released";
+        }
+    }
+
+    /// Puts moving lights where their schedule has them now.
+    fn move_lights(&mut self) {
+        let t = self.time_s as f32;
+        for (i, spec) in &self.light_paths {
+            let [x, y] = spec.position_at(t);
+            if let Some(l) = self.lights.get_mut(*i) {
+                l.position = Vec2::new(x, y);
+            }
         }
     }
 
