@@ -1,5 +1,7 @@
 // End-to-end test of `formica serve` in headless Chromium (Debian's, driven by playwright-core).
-// Run by e2e/run.sh, which starts the server and passes its address in FORMICA_URL.
+// Run by e2e/run.sh, which starts the servers and passes their addresses: FORMICA_URL (a live
+// scenario) and FORMICA_REPLAY_URL (`formica serve --db smoke.db --trial N`, N in
+// FORMICA_REPLAY_TRIAL).
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdtempSync, mkdirSync, rmSync, statSync } from 'node:fs';
@@ -9,6 +11,8 @@ import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
 
 const BASE = (process.env.FORMICA_URL || '').replace(/\/$/, '');
+const REPLAY = (process.env.FORMICA_REPLAY_URL || '').replace(/\/$/, '');
+const TRIAL = Number(process.env.FORMICA_REPLAY_TRIAL || '3');
 const OUT = process.env.E2E_OUT || join(dirname(fileURLToPath(import.meta.url)), 'out');
 const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
 
@@ -20,6 +24,7 @@ const foreign = [];
 
 before(async () => {
   assert.ok(BASE.startsWith('http://127.0.0.1:'), 'FORMICA_URL must name the loopback server');
+  assert.ok(REPLAY.startsWith('http://127.0.0.1:'), 'FORMICA_REPLAY_URL must name the loopback replay server');
   profile = mkdtempSync(join(tmpdir(), 'formica-e2e-profile-'));
   context = await chromium.launchPersistentContext(profile, {
     executablePath: CHROMIUM,
@@ -38,7 +43,10 @@ before(async () => {
   page = context.pages()[0] || (await context.newPage());
   page.on('console', (m) => { if (m.type() === 'error') problems.push('console: ' + m.text()); });
   page.on('pageerror', (e) => problems.push('page error: ' + e.message));
-  page.on('request', (r) => { if (!r.url().startsWith(BASE + '/') && !r.url().startsWith('data:')) foreign.push(r.url()); });
+  page.on('request', (r) => {
+    const u = r.url();
+    if (!u.startsWith(BASE + '/') && !u.startsWith(REPLAY + '/') && !u.startsWith('data:')) foreign.push(u);
+  });
 });
 
 after(async () => {
@@ -145,14 +153,89 @@ test('rays, occluded zone, play and restart with a new seed', async () => {
   await page.waitForFunction(() => window.formicaViewer.state.seed === 6, null, { timeout: 15000 });
   await page.click('#step');
   await waitTick('eq', 1, 'tick 1 after restart');
-});
-
-test('a screenshot is saved, and nothing failed or came from elsewhere', async () => {
   mkdirSync(OUT, { recursive: true });
   const file = join(OUT, 'viewer.png');
   await page.screenshot({ path: file, fullPage: true });
   assert.ok(statSync(file).size > 10000, 'screenshot written');
   console.log('# screenshot: ' + file);
+});
+
+test('replay: a stored trial loads with its stored outcome and reaches it', async () => {
+  const resp = await page.goto(REPLAY + '/');
+  assert.equal(resp.status(), 200);
+  await page.waitForFunction(() => {
+    const v = window.formicaViewer;
+    return v && v.frames > 0 && v.scene && v.scene.replay;
+  }, null, { timeout: 15000 });
+  const rp = await page.evaluate(() => window.formicaViewer.scene.replay);
+  assert.equal(rp.label, `trial ${TRIAL} of smoke.db`);
+  const banner = await page.locator('#replay').textContent();
+  assert.ok(banner.startsWith(`Replay of trial ${TRIAL} of smoke.db, seed ${rp.seed}`), banner);
+  assert.ok(banner.includes('Stored outcome: ' + rp.stored_outcome), banner);
+  assert.equal(await page.locator('#replay').getAttribute('data-check'), 'running');
+
+  await page.selectOption('#speed', '200');
+  await page.click('#play');
+  await page.waitForFunction(() => {
+    const c = document.getElementById('replay').dataset.check;
+    return c === 'match' || c === 'differs';
+  }, null, { timeout: 120000 });
+  const verdict = await page.locator('#replay').textContent();
+  assert.equal(await page.locator('#replay').getAttribute('data-check'), 'match', verdict);
+  assert.equal(await page.locator('#s-outcome').textContent(), rp.stored_outcome);
+  const st = await page.evaluate(() => window.formicaViewer.state);
+  assert.equal(st.tick, rp.stored_ticks);
+  assert.equal(st.time_s, rp.stored_time_s);
+  // The plots over time were drawn from the run's series.
+  await page.waitForFunction(() => Number(document.getElementById('plots').dataset.points) > 10, null, { timeout: 15000 });
+});
+
+test('inspect: clicking a robot shows its readings, state and history', async () => {
+  const target = await page.evaluate(() => {
+    const v = window.formicaViewer;
+    const i = v.state.robots.findIndex((r) => r.released);
+    const r = v.state.robots[i];
+    const [x, y] = v.toPixel(r.x, r.y);
+    const c = document.getElementById('view');
+    const rect = c.getBoundingClientRect();
+    return { i, x: rect.left + x * rect.width / c.width, y: rect.top + y * rect.height / c.height };
+  });
+  assert.ok(target.i >= 0);
+  await page.mouse.click(target.x, target.y);
+  await page.waitForFunction((i) => {
+    const el = document.getElementById('inspect');
+    return !el.hidden && el.dataset.robot === String(i);
+  }, target.i, { timeout: 15000 });
+  assert.equal(await page.locator('#i-title').textContent(), 'Robot ' + target.i);
+  const prox = JSON.parse(await page.locator('#inspect').getAttribute('data-proximity'));
+  const light = JSON.parse(await page.locator('#inspect').getAttribute('data-light'));
+  assert.equal(prox.length, 8);
+  assert.equal(light.length, 8);
+  assert.ok(prox.concat(light).every((x) => x >= 0 && x <= 1), JSON.stringify([prox, light]));
+  const state = await page.locator('#i-state').textContent();
+  const listed = await page.locator(`#robots tbody tr[data-robot="${target.i}"] td:nth-child(2)`).textContent();
+  assert.equal(state, listed, 'the inspector and the table agree on the state');
+  assert.equal(await page.locator('#i-controller').textContent(), 'occlusion');
+  // The bars, the polar plot and the history strip are painted.
+  const painted = await page.evaluate(() => ['i-prox', 'i-light', 'i-history'].map((id) => {
+    const c = document.getElementById(id);
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let n = 0;
+    for (let k = 3; k < d.length; k += 4) if (d[k] > 0) n += 1;
+    return n;
+  }));
+  assert.ok(painted.every((n) => n > 20), 'blank inspector plots: ' + JSON.stringify(painted));
+  mkdirSync(OUT, { recursive: true });
+  const file = join(OUT, 'replay-inspect.png');
+  await page.screenshot({ path: file, fullPage: true });
+  assert.ok(statSync(file).size > 10000, 'screenshot written');
+  console.log('# screenshot: ' + file);
+  // Clicking away from every robot closes the inspector.
+  await page.click('#i-close');
+  assert.equal(await page.locator('#inspect').isHidden(), true);
+});
+
+test('nothing failed or came from elsewhere', async () => {
   assert.deepEqual(problems, []);
   assert.deepEqual(foreign, []);
 });

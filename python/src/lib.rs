@@ -126,9 +126,19 @@ pub(crate) fn input_error(py: Python<'_>, text: &str) -> PyErr {
     }
 }
 
-/// A run's result as the dict `json.loads` makes of its JSON line (keys in the line's order).
-pub(crate) fn result_to_py(py: Python<'_>, r: &formica::RunResult) -> PyResult<Py<PyAny>> {
-    let line = serde_json::to_string(r).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+/// A run's result with its provenance, as the dict `json.loads` makes of the JSON line
+/// `formica run --json` prints (keys in the line's order).
+pub(crate) fn result_to_py(
+    py: Python<'_>,
+    r: &formica::RunResult,
+    provenance: &formica_cli::provenance::Provenance,
+) -> PyResult<Py<PyAny>> {
+    let stamped = formica_cli::provenance::Stamped {
+        result: r,
+        provenance,
+    };
+    let line =
+        serde_json::to_string(&stamped).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     Ok(py
         .import(pyo3::intern!(py, "json"))?
         .call_method1(pyo3::intern!(py, "loads"), (line,))?

@@ -5,6 +5,7 @@ use crate::world::{uses_python, Build};
 use crate::{guard, input_error, result_to_py, scenario_error};
 use formica::experiment::Run;
 use formica::{Registry, RunResult};
+use formica_cli::provenance::Provenance;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
@@ -80,7 +81,11 @@ pub fn run_seeds(
                 .collect::<Result<_, _>>()
                 .map_err(|e| scenario_error(py, &e))?
         };
-        results.iter().map(|r| result_to_py(py, r)).collect()
+        let provenance = Provenance::of(&sc, &b.options(None).overrides);
+        results
+            .iter()
+            .map(|r| result_to_py(py, r, &provenance))
+            .collect()
     })
 }
 

@@ -10,6 +10,7 @@ use formica::controller::Actuation;
 use formica::experiment::{Run, RunOptions};
 use formica::scenario::Color;
 use formica::{Outcome, Overrides, Scenario};
+use formica_cli::provenance::Provenance;
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2, PyArrayLike3, PyArrayMethods};
 use numpy::{PyReadwriteArray2, PyReadwriteArray3};
 use pyo3::exceptions::{PyIndexError, PyRuntimeError, PyValueError};
@@ -135,6 +136,8 @@ pub(crate) struct Sim {
     broken: bool,
     python: bool,
     shapes: Vec<Arc<Shape>>,
+    /// Which Formica made the result, and from what scenario.
+    provenance: Provenance,
 }
 
 impl Sim {
@@ -156,6 +159,7 @@ impl Sim {
             broken: false,
             python: uses_python(sc, b),
             shapes,
+            provenance: Provenance::of(sc, &b.options(seed).overrides),
         })
     }
 
@@ -412,7 +416,7 @@ impl PyWorld {
     fn result(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         guard(|| {
             let g = self.sim()?;
-            result_to_py(py, &g.run.result())
+            result_to_py(py, &g.run.result(), &g.provenance)
         })
     }
 
@@ -1048,6 +1052,6 @@ impl PyWorlds {
             PyIndexError::new_err(format!("world {index}: there are {}", self.sims.len()))
         })?;
         let g = lock(m)?;
-        result_to_py(py, &g.run.result())
+        result_to_py(py, &g.run.result(), &g.provenance)
     }
 }

@@ -1,6 +1,6 @@
 //! `formica export DB --csv FILE`: a result store as CSV, one row per trial, for pandas and R.
 
-use crate::store::{ident, Store, HEAD, METRICS};
+use crate::store::{ident, is_fixed_column, Store, METRICS, PROVENANCE};
 use crate::CliError;
 use anyhow::Context;
 use rusqlite::types::Value as SqlValue;
@@ -13,7 +13,8 @@ pub struct Args {
     /// Result store (SQLite) written by `formica sweep` or `formica merge`.
     pub db: PathBuf,
     /// CSV file to write (`-`: standard output). Columns: trial, seed, params (JSON), one
-    /// column per varied key, then every metric, then every end-of-run field of loop functions.
+    /// column per varied key, the provenance columns, then every metric, then every end-of-run
+    /// field of loop functions.
     #[arg(long)]
     pub csv: PathBuf,
     /// Also write the stored object trajectories as CSV (params, seed, t, x, y, theta).
@@ -55,17 +56,17 @@ fn open_out(path: &PathBuf) -> Result<Box<dyn Write>, CliError> {
     })
 }
 
-/// The export's columns: head, varied keys, metrics, end-of-run fields.
+/// The export's columns: head, varied keys, provenance, metrics, end-of-run fields.
 pub fn export_columns(store: &Store) -> Result<Vec<String>, CliError> {
     let have = store.columns()?;
     let extras = store.extra_columns()?;
     let mut cols: Vec<String> = vec!["trial".into(), "seed".into(), "params".into()];
     for c in &have {
-        let fixed = HEAD.contains(&c.as_str()) || METRICS.iter().any(|(m, _)| m == c);
-        if !fixed && !extras.contains(c) {
+        if !is_fixed_column(c) && !extras.contains(c) {
             cols.push(c.clone());
         }
     }
+    cols.extend(PROVENANCE.iter().map(|p| p.to_string()));
     cols.extend(METRICS.iter().map(|(m, _)| m.to_string()));
     cols.extend(extras);
     Ok(cols)

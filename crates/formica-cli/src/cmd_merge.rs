@@ -13,6 +13,10 @@ pub struct Args {
     /// Stores to merge in (e.g. the shards of one sweep).
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
+    /// Merge stores written by Formica builds whose results can differ (another results
+    /// format), as `formica sweep --allow-mixed` would.
+    #[arg(long)]
+    pub allow_mixed: bool,
 }
 
 /// Runs the command.
@@ -50,6 +54,31 @@ pub fn main(a: Args) -> Result<(), CliError> {
             }
             _ => {}
         }
+    }
+    // Results formats: stores whose results can differ are not mixed unless asked.
+    let mut formats: Vec<(String, Option<String>)> = Vec::new();
+    if store.count()? > 0 {
+        formats.push((a.out.display().to_string(), store.meta("results_format")?));
+    }
+    let mut writers = store.writers()?;
+    for p in &a.inputs {
+        let src = Store::open_existing(p)?;
+        formats.push((p.display().to_string(), src.meta("results_format")?));
+        for w in src.writers()? {
+            if !writers.contains(&w) {
+                writers.push(w);
+            }
+        }
+    }
+    if !a.allow_mixed && formats.iter().any(|(_, f)| *f != formats[0].1) {
+        let list: Vec<String> = formats
+            .iter()
+            .map(|(p, f)| format!("{p}: {}", f.as_deref().unwrap_or("none recorded")))
+            .collect();
+        return Err(CliError::Input(format!(
+            "these stores hold results of different results formats ({}), whose results can differ; nothing merged (--allow-mixed merges them anyway)",
+            list.join(", ")
+        )));
     }
     let before = store.count()?;
     for p in &a.inputs {
@@ -91,6 +120,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
                      INSERT OR IGNORE INTO main.trials ({cols}) SELECT {cols} FROM src.trials;
                      INSERT OR IGNORE INTO main.trajectories (params, seed, samples)
                          SELECT params, seed, samples FROM src.trajectories;
+                     INSERT OR IGNORE INTO main.timeseries (params, seed, series)
+                         SELECT params, seed, series FROM src.timeseries;
+                     INSERT OR IGNORE INTO main.scenarios (sha256, file, toml)
+                         SELECT sha256, file, toml FROM src.scenarios;
                      COMMIT;"
                 ))
                 .with_context(|| format!("merging {}", p.display()))?;
@@ -101,6 +134,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .execute("DETACH DATABASE src", [])
             .context("closing an input")?;
         result?;
+    }
+    if !writers.is_empty() {
+        store.set_meta(
+            "writers",
+            &serde_json::to_string(&writers).context("encoding writers")?,
+        )?;
     }
     let after = store.count()?;
     outln!(

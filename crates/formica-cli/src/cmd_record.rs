@@ -1,20 +1,30 @@
-//! `formica record SCENARIO --out run.gif`: render a run headless to an animated GIF.
+//! `formica record SCENARIO --out run.gif|run.mp4`: render a run headless to an animated GIF or
+//! an H.264 MP4 video; with `--db STUDY.db --trial N`, a stored trial, checked against the store.
 
+use crate::replay::Replayer;
 use crate::CliError;
 use anyhow::Context;
 use formica::experiment::{Run, RunOptions};
-use formica::{Overrides, Scenario};
-use formica_render::{record_gif, RecordOptions};
+use formica::Overrides;
+use formica_render::{record_gif, record_mp4, RecordOptions};
 use std::path::PathBuf;
 
 /// Arguments of `formica record`.
 #[derive(clap::Args)]
 pub struct Args {
     /// Scenario file (TOML).
-    pub scenario: PathBuf,
-    /// Output file (`.gif`).
+    #[arg(required_unless_present = "db")]
+    pub scenario: Option<PathBuf>,
+    /// Output file: `.gif` (animated GIF) or `.mp4` (H.264 video).
     #[arg(long)]
     pub out: PathBuf,
+    /// Record a trial of this result store (with `--trial`) instead of a scenario file.
+    #[arg(long, value_name = "STUDY.db", requires = "trial",
+          conflicts_with_all = ["scenario", "seed", "duration", "controller", "set"])]
+    pub db: Option<PathBuf>,
+    /// With `--db`: the trial to record (its number, as `formica report` lists it).
+    #[arg(long, requires = "db")]
+    pub trial: Option<usize>,
     /// Seed (default: the file's `run.seed`).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -24,6 +34,9 @@ pub struct Args {
     /// Use this controller for every robot group.
     #[arg(long)]
     pub controller: Option<String>,
+    /// Override any scenario key, as `formica run --set` does (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Frames per second of the animation.
     #[arg(long, default_value_t = 10)]
     pub fps: u32,
@@ -48,21 +61,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("gif") => {}
-        Some("mp4") => {
-            return Err(CliError::Input(
-                "--out: MP4 is not supported (it would need a system video encoder); write a .gif"
-                    .into(),
-            ))
-        }
+    let video = match ext.as_deref() {
+        Some("gif") => false,
+        Some("mp4") => true,
         _ => {
             return Err(CliError::Input(format!(
-                "--out: expected a file name ending in .gif, got `{}`",
+                "--out: expected a file name ending in .gif or .mp4, got `{}`",
                 a.out.display()
             )))
         }
-    }
+    };
     if !(1..=50).contains(&a.fps) {
         return Err(CliError::Input(format!(
             "--fps: expected 1 to 50, got {}",
@@ -84,21 +92,31 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if a.max_frames == 0 {
         return Err(CliError::Input("--max-frames: expected at least 1".into()));
     }
-    if let Some(d) = a.duration {
-        if !(d > 0.0 && d.is_finite()) {
-            return Err(CliError::Input(format!(
-                "--duration: expected a positive number of seconds, got {d}"
-            )));
-        }
-    }
+    crate::check_duration(a.duration)?;
+    crate::check_seed(a.seed)?;
     crate::check_controller(a.controller.as_deref())?;
-    let sc = Scenario::load(&a.scenario)?;
+    let replay = match (&a.db, a.trial) {
+        (Some(db), Some(n)) => Some(Replayer::open(db)?.trial(n)?),
+        _ => None,
+    };
+    let (sc, overrides) = match (&replay, &a.scenario) {
+        (Some(r), _) => (r.scenario.clone(), r.overrides()),
+        (None, Some(path)) => (
+            crate::cmd_run::load(path, &a.set)?,
+            Overrides {
+                seed: a.seed,
+                duration_s: a.duration,
+                controller: a.controller.clone(),
+            },
+        ),
+        (None, None) => {
+            return Err(CliError::Input(
+                "expected a scenario file, or --db STUDY.db --trial N".into(),
+            ))
+        }
+    };
     let opts = RunOptions {
-        overrides: Overrides {
-            seed: a.seed,
-            duration_s: a.duration,
-            controller: a.controller.clone(),
-        },
+        overrides,
         record: false,
         robot_every: 1,
     };
@@ -117,9 +135,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     let file =
         std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    let (summary, w) = record_gif(&mut run, &rec, std::io::BufWriter::new(file))
-        .map_err(anyhow::Error::msg)
-        .with_context(|| format!("writing {}", a.out.display()))?;
+    let out = std::io::BufWriter::new(file);
+    let (summary, w) = if video {
+        record_mp4(&mut run, &rec, a.fps, out)
+    } else {
+        record_gif(&mut run, &rec, out)
+    }
+    .map_err(anyhow::Error::msg)
+    .with_context(|| format!("writing {}", a.out.display()))?;
     w.into_inner()
         .map_err(|e| anyhow::Error::new(e.into_error()))
         .with_context(|| format!("writing {}", a.out.display()))?;
@@ -136,5 +159,29 @@ pub fn main(a: Args) -> Result<(), CliError> {
         summary.sim_time_s,
         summary.ticks
     );
+    if let Some(r) = &replay {
+        if summary.outcome.is_none() {
+            outln!(
+                "trial {} not checked against the store: --max-frames cut the run short",
+                r.trial
+            );
+            return Ok(());
+        }
+        let diffs = r.differences(&run.result());
+        if !diffs.is_empty() {
+            return Err(CliError::Other(anyhow::anyhow!(
+                "the replay of trial {} does not end as stored ({}): {}",
+                r.trial,
+                r.stored_outcome(),
+                diffs.join("; ")
+            )));
+        }
+        outln!(
+            "trial {} (seed {}) ends as stored: {}",
+            r.trial,
+            r.seed,
+            r.stored_outcome()
+        );
+    }
     Ok(())
 }

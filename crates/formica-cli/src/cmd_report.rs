@@ -10,7 +10,9 @@
 //! - `fill-KEY`: convexity after filling and cavity filled (if the trials report them);
 //! - `extra-FIELD-KEY`: the mean of each numeric end-of-run field that loop functions added
 //!   (`RunResult::extra`), with a 95 % interval;
-//! - `summary.md`: one table row per parameter set (end-of-run fields: their means).
+//! - `summary.md`: one table row per parameter set (end-of-run fields: their means), the
+//!   provenance of the store, and the failed trials of each parameter set with the command that
+//!   replays each and a gallery of pictures of how the first ones ended (`failures/trial-N.png`).
 
 use crate::plots::{self, CategoryPlot, Estimate, LinePlot};
 use crate::stats::{censored_median, wilson95};
@@ -33,6 +35,12 @@ pub struct Args {
     /// At most this many trajectories in the overlay.
     #[arg(long, default_value_t = 300)]
     pub max_trajectories: usize,
+    /// List at most this many failed trials per parameter set.
+    #[arg(long, default_value_t = 20)]
+    pub failures: usize,
+    /// Draw how this many failed trials per parameter set ended (replaying them); 0: none.
+    #[arg(long, default_value_t = 3)]
+    pub gallery: usize,
 }
 
 /// A short label of a parameter value.
@@ -604,7 +612,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let _ = writeln!(
         md,
         "{n} trials in `{}`, {} parameter set(s); {k} successes ({:.1} %, 95 % Wilson CI {:.1}–{:.1} %).\n",
-        a.db.display(),
+        crate::replay::store_name(&a.db),
         sets.len(),
         100.0 * k as f64 / n as f64,
         100.0 * lo,
@@ -680,6 +688,22 @@ pub fn main(a: Args) -> Result<(), CliError> {
     for (f, title) in &figures {
         let _ = writeln!(md, "### {title}\n\n![{title}]({f}.png) ([SVG]({f}.svg))\n");
     }
+    let short_label = |r: &StoredTrial| {
+        r.params
+            .get("label")
+            .and_then(|v| v.as_str())
+            .map_or_else(|| set_label(r), str::to_string)
+    };
+    md.push_str(&crate::gallery::failures_section(
+        &a.db,
+        &rows,
+        &sets,
+        &short_label,
+        dir,
+        a.failures,
+        a.gallery,
+    )?);
+    md.push_str(&crate::gallery::provenance_section(&store, &a.db, &a.out)?);
     std::fs::write(dir.join("summary.md"), md).context("writing summary.md")?;
     outln!(
         "wrote {} figures (PNG and SVG) and summary.md to {}",
@@ -711,6 +735,8 @@ mod tests {
         let trial = |params: serde_json::Value| {
             let params = params.as_object().cloned().unwrap_or_default();
             StoredTrial {
+                trial: 0,
+                provenance: Default::default(),
                 params_json: serde_json::Value::Object(params.clone()).to_string(),
                 params,
                 result: r(Outcome::Success, 1.0),

@@ -1,5 +1,8 @@
-//! `formica run SCENARIO`: run one seed, or a range of seeds in parallel.
+//! `formica run SCENARIO`: run one seed, or a range of seeds in parallel; or, with
+//! `--db STUDY.db --trial N`, replay stored trials and check that they end as stored.
 
+use crate::provenance::{Provenance, Stamped};
+use crate::replay::{self, Replay, Replayer};
 use crate::{output, stats, CliError};
 use anyhow::Context;
 use formica::experiment::{Run, RunOptions};
@@ -11,7 +14,8 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 pub struct Args {
     /// Scenario file (TOML).
-    pub scenario: PathBuf,
+    #[arg(required_unless_present = "db")]
+    pub scenario: Option<PathBuf>,
     /// Seed (default: the file's `run.seed`).
     #[arg(long, conflicts_with = "seeds")]
     pub seed: Option<u64>,
@@ -41,20 +45,45 @@ pub struct Args {
     /// Run even if the physics step is too coarse for contacts to hold (see `formica check`).
     #[arg(long)]
     pub force: bool,
+    /// Replay trials of this result store (see `--trial`) instead of running a scenario file.
+    #[arg(long, value_name = "STUDY.db", requires = "trial",
+          conflicts_with_all = ["scenario", "seed", "seeds", "duration", "controller", "set"])]
+    pub db: Option<PathBuf>,
+    /// With `--db`: which trial to replay (its number, as `formica report` lists it), `A..B`
+    /// or `all`. Each replay must end exactly as stored (exit 1 otherwise).
+    #[arg(long, requires = "db", value_name = "N|A..B|all")]
+    pub trial: Option<String>,
 }
 
-/// Parses a seed range `A..B` (inclusive; `A..=B` also accepted).
-pub fn seed_range(s: &str) -> Option<std::ops::RangeInclusive<u64>> {
-    let (a, b) = s.split_once("..")?;
-    let a: u64 = a.trim().parse().ok()?;
-    let b: u64 = b.trim().trim_start_matches('=').parse().ok()?;
-    (a <= b).then_some(a..=b)
+/// Parses a seed range `A..B` (inclusive; `A..=B` also accepted) of at most
+/// [`MAX_TRIALS`](formica::limits::MAX_TRIALS) seeds, each at most
+/// [`MAX_SEED`](formica::limits::MAX_SEED); the error says what was expected.
+pub fn seed_range(s: &str) -> Result<std::ops::RangeInclusive<u64>, String> {
+    use formica::limits::{MAX_SEED, MAX_TRIALS};
+    let expected = || format!("expected A..B with 0 <= A <= B <= {MAX_SEED}, got `{s}`");
+    let (a, b) = s.split_once("..").ok_or_else(expected)?;
+    let a: u64 = a.trim().parse().map_err(|_| expected())?;
+    let b: u64 = b
+        .trim()
+        .trim_start_matches('=')
+        .trim()
+        .parse()
+        .map_err(|_| expected())?;
+    if a > b || b > MAX_SEED {
+        return Err(expected());
+    }
+    if b - a >= MAX_TRIALS {
+        return Err(format!(
+            "`{s}` is {} seeds; at most {MAX_TRIALS} trials a call (split the range)",
+            (b - a).saturating_add(1)
+        ));
+    }
+    Ok(a..=b)
 }
 
 /// Parses `--seeds A..B`.
 pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
-    seed_range(s)
-        .ok_or_else(|| CliError::Input(format!("--seeds: expected A..B with A <= B, got `{s}`")))
+    seed_range(s).map_err(|m| CliError::Input(format!("--seeds: {m}")))
 }
 
 /// Loads the scenario with the `--set` overrides applied.
@@ -118,43 +147,93 @@ fn describe(r: &RunResult) -> String {
 
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
-    let sc = load(&a.scenario, &a.set)?;
+    if let Some(db) = &a.db {
+        return replay_trials(&a, db);
+    }
+    let Some(path) = &a.scenario else {
+        return Err(CliError::Input(
+            "expected a scenario file, or --db STUDY.db --trial N".into(),
+        ));
+    };
+    let sc = load(path, &a.set)?;
     crate::check_controller(a.controller.as_deref())?;
     if let (Some(w), false) = (sc.physics_warning(), a.force) {
-        return Err(CliError::Input(format!(
-            "{}: {w}; --force runs it anyway",
-            sc.file
-        )));
+        // At the key that sets the step: the sub-steps if the file fixes them, else the rate.
+        let key = match sc.spec.run.substeps {
+            formica::scenario::Substeps::Fixed(_) => "run.substeps",
+            formica::scenario::Substeps::Auto => "run.tick_hz",
+        };
+        return Err(sc
+            .error_at_key(key, format!("{w}; --force runs it anyway"))
+            .into());
     }
-    if let Some(d) = a.duration {
-        if !(d > 0.0 && d.is_finite()) {
-            return Err(CliError::Input(format!(
-                "--duration: expected a positive number of seconds, got {d}"
-            )));
-        }
-    }
+    crate::check_duration(a.duration)?;
+    crate::check_seed(a.seed)?;
     match &a.seeds {
         Some(s) => run_many(&a, &sc, parse_seeds(s)?),
-        None => run_one(&a, &sc),
+        None => run_one(&a, &sc, &overrides(&a, a.seed), None),
     }
 }
 
-fn run_one(a: &Args, sc: &Scenario) -> Result<(), CliError> {
+/// The JSON line of a result with its provenance.
+fn json_line(r: &RunResult, p: &Provenance) -> Result<String, CliError> {
+    Ok(serde_json::to_string(&Stamped {
+        result: r,
+        provenance: p,
+    })
+    .context("encoding JSON")?)
+}
+
+/// Time series of `formica run --out` are sampled this often (simulated seconds).
+const TIMESERIES_EVERY_S: f64 = 0.5;
+
+fn run_one(
+    a: &Args,
+    sc: &Scenario,
+    ov: &Overrides,
+    replay: Option<&Replay>,
+) -> Result<(), CliError> {
     let opts = RunOptions {
-        overrides: overrides(a, a.seed),
+        overrides: ov.clone(),
         record: a.out.is_some(),
         robot_every: 1,
     };
+    let provenance = Provenance::of(sc, ov);
     let mut run = Run::new(sc, &opts)?;
-    run.run_to_end();
+    let mut series = a
+        .out
+        .is_some()
+        .then(|| formica::timeseries::TimeSeries::new(&run.world, TIMESERIES_EVERY_S, usize::MAX));
+    crate::cmd_sweep::run_with_series(&mut run, series.as_mut());
     let result = run.result();
     if a.json {
-        outln!(
-            "{}",
-            serde_json::to_string(&result).context("encoding JSON")?
-        );
+        outln!("{}", json_line(&result, &provenance)?);
     } else {
         outln!("{}", describe(&result));
+    }
+    let check = replay.map(|r| (r, r.differences(&result)));
+    if let Some((r, diffs)) = &check {
+        let line = if diffs.is_empty() {
+            format!(
+                "replay of trial {} (seed {}) ends as stored: {}",
+                r.trial,
+                r.seed,
+                r.stored_outcome()
+            )
+        } else {
+            format!(
+                "replay of trial {} (seed {}) does NOT end as stored ({}): {}",
+                r.trial,
+                r.seed,
+                r.stored_outcome(),
+                diffs.join("; ")
+            )
+        };
+        if a.json {
+            eprintln!("{line}");
+        } else {
+            outln!("{line}");
+        }
     }
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -172,15 +251,125 @@ fn run_one(a: &Args, sc: &Scenario) -> Result<(), CliError> {
             formica_render::save_png(&run.world, 900, &overlay, &dir.join("final.png"))
                 .map_err(anyhow::Error::msg)?;
         }
-        let json = serde_json::to_string_pretty(&result).context("encoding JSON")?;
+        if let Some(s) = &series {
+            std::fs::write(dir.join("timeseries.csv"), s.to_csv())
+                .with_context(|| format!("writing {}", dir.join("timeseries.csv").display()))?;
+        }
+        let json = serde_json::to_string_pretty(&Stamped {
+            result: &result,
+            provenance: &provenance,
+        })
+        .context("encoding JSON")?;
         std::fs::write(dir.join("result.json"), json + "\n")
             .with_context(|| format!("writing {}", dir.join("result.json").display()))?;
         if !a.json {
             outln!(
-                "wrote {}/{{object.csv, robots.csv, result.json, final.png}}",
+                "wrote {}/{{object.csv, robots.csv, timeseries.csv, result.json, final.png}}",
                 dir.display()
             );
         }
+    }
+    match check {
+        Some((r, diffs)) if !diffs.is_empty() => Err(CliError::Other(anyhow::anyhow!(
+            "the replay of trial {} differs from the store",
+            r.trial
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// `--db STUDY.db --trial N|A..B|all`: replays, each checked against the store.
+fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
+    let mut replayer = Replayer::open(db)?;
+    let which = replay::parse_trials(a.trial.as_deref().unwrap_or("all"))?;
+    if let Some(range) = &which {
+        if range.start() == range.end() {
+            let r = replayer.trial(*range.start())?;
+            return run_one(a, &r.scenario, &r.overrides(), Some(&r));
+        }
+    }
+    if a.out.is_some() {
+        return Err(CliError::Input(
+            "--out: give one --trial N to write its files".into(),
+        ));
+    }
+    let numbers: Vec<usize> = replayer
+        .trial_numbers()?
+        .into_iter()
+        .filter(|n| which.as_ref().is_none_or(|r| r.contains(n)))
+        .collect();
+    if numbers.is_empty() {
+        return Err(CliError::Input(format!(
+            "--trial: {} holds no trials in that range",
+            replay::store_name(db)
+        )));
+    }
+    let replays: Vec<Replay> = numbers
+        .iter()
+        .map(|&n| replayer.trial(n))
+        .collect::<Result<_, _>>()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")?;
+    let results: Vec<Result<RunResult, formica::ScenarioError>> = pool.install(|| {
+        replays
+            .par_iter()
+            .with_max_len(1)
+            .map(|r| {
+                let opts = RunOptions {
+                    overrides: r.overrides(),
+                    ..Default::default()
+                };
+                formica::run(&r.scenario, &opts).map(|(res, _)| res)
+            })
+            .collect()
+    });
+    let mut differ = 0usize;
+    for (r, res) in replays.iter().zip(results) {
+        let res = res?;
+        let diffs = r.differences(&res);
+        if a.json {
+            outln!("{}", json_line(&res, &replay::provenance_of(r))?);
+        }
+        let line = if diffs.is_empty() {
+            format!(
+                "trial {} (seed {}): ends as stored, {}",
+                r.trial,
+                r.seed,
+                r.stored_outcome()
+            )
+        } else {
+            differ += 1;
+            format!(
+                "trial {} (seed {}): DIFFERS from the store: {}",
+                r.trial,
+                r.seed,
+                diffs.join("; ")
+            )
+        };
+        if a.json {
+            eprintln!("{line}");
+        } else {
+            outln!("{line}");
+        }
+    }
+    let summary = format!(
+        "{}: replayed {} trials, {} end as stored, {differ} differ",
+        replay::store_name(db),
+        replays.len(),
+        replays.len() - differ
+    );
+    if a.json {
+        eprintln!("{summary}");
+    } else {
+        outln!("{summary}");
+    }
+    if differ > 0 {
+        return Err(CliError::Other(anyhow::anyhow!(
+            "{differ} of {} replays differ from the store",
+            replays.len()
+        )));
     }
     Ok(())
 }
@@ -214,9 +403,10 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
     });
     let results: Vec<RunResult> = results.into_iter().collect::<Result<_, _>>()?;
     let summary = stats::summarize(&sc.name, &results);
+    let provenance = Provenance::of(sc, &overrides(a, None));
     if a.json {
         for r in &results {
-            outln!("{}", serde_json::to_string(r).context("encoding JSON")?);
+            outln!("{}", json_line(r, &provenance)?);
         }
         outln!(
             "{}",
@@ -241,7 +431,7 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let mut lines = String::new();
         for r in &results {
-            lines += &(serde_json::to_string(r).context("encoding JSON")? + "\n");
+            lines += &(json_line(r, &provenance)? + "\n");
         }
         std::fs::write(dir.join("results.jsonl"), lines).context("writing results.jsonl")?;
         std::fs::write(

@@ -1,8 +1,10 @@
-//! `formica serve SCENARIO`: a live web viewer of one run on 127.0.0.1.
+//! `formica serve SCENARIO`: a live web viewer of one run on 127.0.0.1; with
+//! `--db STUDY.db --trial N`, of a stored trial, checked against the store as it ends.
 
+use crate::replay::{self, Replayer};
 use crate::CliError;
 use formica::Scenario;
-use formica_serve::{ServeError, ServeOptions, Server};
+use formica_serve::{ReplayInfo, ServeError, ServeOptions, Server};
 use std::net::IpAddr;
 use std::path::PathBuf;
 
@@ -10,7 +12,15 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 pub struct Args {
     /// Scenario file (TOML).
-    pub scenario: PathBuf,
+    #[arg(required_unless_present = "db")]
+    pub scenario: Option<PathBuf>,
+    /// Show a trial of this result store (with `--trial`) instead of a scenario file.
+    #[arg(long, value_name = "STUDY.db", requires = "trial",
+          conflicts_with_all = ["scenario", "seed", "duration"])]
+    pub db: Option<PathBuf>,
+    /// With `--db`: the trial to show (its number, as `formica report` lists it).
+    #[arg(long, requires = "db")]
+    pub trial: Option<usize>,
     /// Port to listen on (0: any free port).
     #[arg(long, default_value_t = formica_serve::DEFAULT_PORT)]
     pub port: u16,
@@ -31,20 +41,48 @@ pub struct Args {
 
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
-    let sc = Scenario::load(&a.scenario)?;
-    if let Some(d) = a.duration {
-        if !(d > 0.0 && d.is_finite()) {
-            return Err(CliError::Input(format!(
-                "--duration: expected a positive number of seconds, got {d}"
-            )));
+    let (sc, seed, replay, what) = match (&a.db, a.trial, &a.scenario) {
+        (Some(db), Some(n), _) => {
+            let r = Replayer::open(db)?.trial(n)?;
+            let label = format!("trial {n} of {}", replay::store_name(db));
+            let params = r
+                .stored
+                .params
+                .iter()
+                .map(|(k, v)| {
+                    let v = v.as_str().map_or_else(|| v.to_string(), str::to_string);
+                    (k.clone(), v)
+                })
+                .collect();
+            let info = ReplayInfo {
+                label: label.clone(),
+                seed: r.seed,
+                stored: r.stored.result.clone(),
+                params,
+            };
+            (r.scenario, Some(r.seed), Some(info), label)
         }
-    }
+        (_, _, Some(path)) => (
+            Scenario::load(path)?,
+            a.seed,
+            None,
+            path.display().to_string(),
+        ),
+        _ => {
+            return Err(CliError::Input(
+                "expected a scenario file, or --db STUDY.db --trial N".into(),
+            ))
+        }
+    };
+    crate::check_duration(a.duration)?;
+    crate::check_seed(a.seed)?;
     let opts = ServeOptions {
         host: a.host,
         port: a.port,
-        seed: a.seed,
+        seed,
         duration_s: a.duration,
         play: a.play,
+        replay,
         ..ServeOptions::default()
     };
     let server = Server::bind(sc, opts).map_err(|e| match e {
@@ -64,10 +102,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     } else {
         addr.to_string()
     };
-    outln!(
-        "serving {} on http://{shown}/ (Ctrl-C to stop)",
-        a.scenario.display()
-    );
+    outln!("serving {what} on http://{shown}/ (Ctrl-C to stop)");
     server
         .run()
         .map_err(|e| CliError::Other(anyhow::Error::new(e).context("serving")))

@@ -1,11 +1,13 @@
 //! `formica sweep SWEEP.toml`: run a parameter grid in parallel into a SQLite result store.
 //! Resumable: trials already stored are skipped.
 
+use crate::provenance::{sha256_hex, Provenance};
 use crate::store::{Row, Store};
 use crate::sweep::{parse_shard, Sweep, Trial};
 use crate::{stats, CliError};
 use anyhow::Context;
 use formica::experiment::{Run, RunOptions};
+use formica::timeseries::TimeSeries;
 use formica::{Outcome, Overrides};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -38,6 +40,10 @@ pub struct Args {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Add trials to a store written by a Formica whose results can differ from this one's
+    /// (another results format); every row records the build that wrote it.
+    #[arg(long)]
+    pub allow_mixed: bool,
 }
 
 /// The default store of a sweep file.
@@ -48,7 +54,31 @@ pub fn default_db(sweep: &std::path::Path) -> PathBuf {
 /// Object samples every this many simulated seconds go to the store.
 const TRAJECTORY_EVERY_S: f64 = 1.0;
 
-fn run_trial(sweep: &Sweep, t: Trial, record: bool) -> Result<Row, formica::ScenarioError> {
+/// The time series of a trial is sampled every this many simulated seconds.
+pub const TIMESERIES_EVERY_S: f64 = 1.0;
+
+/// Steps `run` to its end, feeding `series` (if any) every tick and at the last one.
+pub fn run_with_series(run: &mut Run, mut series: Option<&mut TimeSeries>) {
+    loop {
+        let done = run.step().is_some();
+        if let Some(s) = series.as_mut() {
+            s.observe(&run.world);
+            if done {
+                s.sample(&run.world);
+            }
+        }
+        if done {
+            return;
+        }
+    }
+}
+
+fn run_trial(
+    sweep: &Sweep,
+    t: Trial,
+    record: bool,
+    provenance: &Provenance,
+) -> Result<Row, formica::ScenarioError> {
     let set = &sweep.sets[t.set];
     let opts = RunOptions {
         overrides: Overrides {
@@ -59,7 +89,8 @@ fn run_trial(sweep: &Sweep, t: Trial, record: bool) -> Result<Row, formica::Scen
         robot_every: u64::MAX,
     };
     let mut run = Run::new(&set.scenario, &opts)?;
-    run.run_to_end();
+    let mut series = record.then(|| TimeSeries::new(&run.world, TIMESERIES_EVERY_S, usize::MAX));
+    run_with_series(&mut run, series.as_mut());
     let result = run.result();
     let trajectory = run.trajectories().map(|tr| {
         let mut out: Vec<[f64; 4]> = Vec::new();
@@ -83,6 +114,8 @@ fn run_trial(sweep: &Sweep, t: Trial, record: bool) -> Result<Row, formica::Scen
             .collect(),
         result,
         trajectory,
+        timeseries: series.map(|s| s.to_json().to_string()),
+        provenance: provenance.clone(),
     })
 }
 
@@ -130,8 +163,26 @@ pub fn main(a: Args) -> Result<(), CliError> {
         )
         .map_err(|e| CliError::Input(format!("{} (parameter set {})", e, set.key)))?;
     }
+    // Each parameter set's provenance (the seed is not part of the scenario's digest).
+    let provenance: Vec<Provenance> = sweep
+        .sets
+        .iter()
+        .map(|set| Provenance::of(&set.scenario, &Overrides::default()))
+        .collect();
+    let all_scenarios: Vec<&str> = provenance
+        .iter()
+        .map(|p| p.scenario_sha256.as_str())
+        .collect();
     let mut store = Store::open(&db)?;
-    store.bind(&sweep, &db)?;
+    store.bind(
+        &sweep,
+        &db,
+        &sha256_hex(all_scenarios.join("\n").as_bytes()),
+        a.allow_mixed,
+    )?;
+    for (set, p) in sweep.sets.iter().zip(&provenance) {
+        store.add_scenario(&p.scenario_sha256, &set.scenario.file, set.scenario.text())?;
+    }
     let done = store.done()?;
     if !done.is_empty() {
         let index: Vec<(&str, u64, usize)> = all
@@ -194,13 +245,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let failures: Vec<String> = pool.install(|| {
         todo.par_iter()
             .with_max_len(1)
-            .filter_map(|&t| match run_trial(&sweep, t, record) {
-                Ok(row) => tx
-                    .send(row)
-                    .err()
-                    .map(|_| "the result writer stopped".to_string()),
-                Err(e) => Some(format!("trial {} (seed {}): {e}", t.index, t.seed)),
-            })
+            .filter_map(
+                |&t| match run_trial(&sweep, t, record, &provenance[t.set]) {
+                    Ok(row) => tx
+                        .send(row)
+                        .err()
+                        .map(|_| "the result writer stopped".to_string()),
+                    Err(e) => Some(format!("trial {} (seed {}): {e}", t.index, t.seed)),
+                },
+            )
             .collect()
     });
     drop(tx);

@@ -19,7 +19,9 @@
 use clap::{Parser, Subcommand};
 use formica::Registry;
 use std::ffi::OsString;
+use std::path::Path;
 use std::process::ExitCode;
+use std::sync::Mutex;
 
 #[macro_use]
 mod console;
@@ -34,15 +36,18 @@ mod cmd_run;
 mod cmd_serve;
 mod cmd_slurm;
 mod cmd_sweep;
+mod gallery;
 mod output;
 mod plots;
+pub mod provenance;
+mod replay;
 mod stats;
 mod store;
 mod sweep;
 
 /// Formica: a simulator and behaviour suite for cooperative transport by robot swarms.
 #[derive(Parser)]
-#[command(name = "formica", version, about, long_about = None)]
+#[command(name = "formica", version = provenance::LONG_VERSION, about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -68,7 +73,7 @@ enum Command {
     Slurm(cmd_slurm::Args),
     /// Serve a live viewer of a scenario on 127.0.0.1.
     Serve(cmd_serve::Args),
-    /// Render a run to an animated GIF.
+    /// Render a run to an animated GIF or an MP4 video.
     Record(cmd_record::Args),
 }
 
@@ -79,6 +84,30 @@ pub(crate) enum CliError {
     Input(String),
     /// Something else failed (I/O, ...).
     Other(anyhow::Error),
+}
+
+/// `--duration`: more than 0 and at most [`formica::limits::MAX_DURATION_S`].
+pub(crate) fn check_duration(d: Option<f32>) -> Result<(), CliError> {
+    let max = formica::limits::MAX_DURATION_S;
+    match d {
+        Some(d) if !(d > 0.0 && d <= max) => Err(CliError::Input(format!(
+            "--duration: expected more than 0 and at most {} seconds, got {d}",
+            formica::limits::show(max)
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// `--seed`: at most [`formica::limits::MAX_SEED`] (seeds are stored as 64-bit signed
+/// integers, as TOML writes them).
+pub(crate) fn check_seed(s: Option<u64>) -> Result<(), CliError> {
+    let max = formica::limits::MAX_SEED;
+    match s {
+        Some(s) if s > max => Err(CliError::Input(format!(
+            "--seed: expected 0 to {max}, got {s}"
+        ))),
+        _ => Ok(()),
+    }
 }
 
 impl From<formica::ScenarioError> for CliError {
@@ -111,6 +140,33 @@ pub(crate) fn check_controller(name: Option<&str>) -> Result<(), CliError> {
     }
 }
 
+/// The name of the program running (`formica`, or that of a program built on [`main_with`]).
+static PROGRAM: Mutex<String> = Mutex::new(String::new());
+
+/// Records the program's name from `args[0]`: its file name without the extension.
+fn set_program(arg0: Option<&OsString>) {
+    let name = arg0
+        .and_then(|a| Path::new(a).file_stem())
+        .map(|s| s.to_string_lossy().into_owned())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_default();
+    if let Ok(mut p) = PROGRAM.lock() {
+        *p = name;
+    }
+}
+
+/// How reports and messages name the command in the commands they show (`formica serve --db
+/// ...`): the program's own name, so that a program built on [`main_with`] shows commands that
+/// know its controllers; `formica` if unknown.
+pub(crate) fn program() -> String {
+    PROGRAM
+        .lock()
+        .ok()
+        .map(|p| p.clone())
+        .filter(|p| !p.is_empty())
+        .unwrap_or_else(|| "formica".into())
+}
+
 /// Runs the `formica` command line of this process (`std::env::args`) with `registry` as the
 /// process-wide registry ([`Registry::install`]): scenario files, sweeps, `--controller` and
 /// `--set` resolve controller and model names in it, and every run gets its loop functions.
@@ -138,6 +194,8 @@ where
     T: Into<OsString> + Clone,
 {
     registry.install();
+    let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
+    set_program(args.first());
     let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
         Err(e) => {

@@ -3,15 +3,24 @@
 //!
 //! Tables:
 //! - `meta(key, value)`: `name`, `digest` (of the sweep's fixed settings), `keys` (JSON list of
-//!   the varied keys), `sweep` (the file).
+//!   the varied keys), `sweep` (the file); the provenance of the run that made the store
+//!   (`formica_version`, `git_commit`, `platform`, `scenario_sha256`: of the canonical scenarios
+//!   of every parameter set, in grid order), its `results_format`, and `writers` (JSON list of
+//!   every build that added trials, see [`crate::provenance::Writer`]).
 //! - `trials`: `trial` (index in the full grid), `params` (canonical JSON), `seed`, one column
 //!   per varied key (named as the key, e.g. `robots.0.count`), then every `RunResult` metric
-//!   (`scenario_name` for the result's `scenario`), then one column per end-of-run field that
-//!   loop functions added (`RunResult::extra`, added as trials bring new ones; NULL in trials
-//!   without it; lists and tables as JSON text). Primary key `(params, seed)`.
+//!   (`scenario_name` for the result's `scenario`), the four [`PROVENANCE`] columns, then one
+//!   column per end-of-run field that loop functions added (`RunResult::extra`, added as trials
+//!   bring new ones; NULL in trials without it; lists and tables as JSON text). Primary key
+//!   `(params, seed)`.
+//! - `scenarios(sha256, file, toml)`: each parameter set's scenario as run (overrides applied),
+//!   by its `scenario_sha256`, so that any trial can be replayed from the store alone.
 //! - `trajectories(params, seed, samples)`: the object's path as JSON `[[t, x, y, theta], ...]`,
-//!   when the sweep stores trajectories.
+//!   and `timeseries(params, seed, series)`: goal distance, object speed and robots per state
+//!   over time (JSON, see [`formica::timeseries::TimeSeries::to_json`]), when the sweep stores
+//!   trajectories.
 
+use crate::provenance::{Provenance, Writer};
 use crate::sweep::Sweep;
 use crate::CliError;
 use anyhow::Context;
@@ -43,8 +52,21 @@ pub const METRICS: &[(&str, &str)] = &[
     ("wall_time_s", "REAL"),
 ];
 
+/// Provenance columns of `trials` (see [`crate::provenance`]).
+pub const PROVENANCE: &[&str] = &[
+    "formica_version",
+    "git_commit",
+    "scenario_sha256",
+    "platform",
+];
+
 /// Columns every `trials` table starts with.
 pub const HEAD: &[&str] = &["trial", "params", "seed"];
+
+/// Whether `c` is one of the columns every `trials` table has (head, metrics, provenance).
+pub fn is_fixed_column(c: &str) -> bool {
+    HEAD.contains(&c) || METRICS.iter().any(|(m, _)| *m == c) || PROVENANCE.contains(&c)
+}
 
 /// Quotes an SQL identifier.
 pub fn ident(name: &str) -> String {
@@ -71,6 +93,10 @@ pub struct Row {
     pub result: RunResult,
     /// Object samples `[t, x, y, theta]`, if stored.
     pub trajectory: Option<Vec<[f64; 4]>>,
+    /// The time series (JSON), if stored.
+    pub timeseries: Option<String>,
+    /// Which build made it, from which scenario.
+    pub provenance: Provenance,
 }
 
 fn sql_of(v: &toml::Value) -> SqlValue {
@@ -136,12 +162,23 @@ impl Store {
              CREATE TABLE IF NOT EXISTS trials (trial INTEGER NOT NULL, params TEXT NOT NULL,
                  seed INTEGER NOT NULL, {}, PRIMARY KEY (params, seed));
              CREATE TABLE IF NOT EXISTS trajectories (params TEXT NOT NULL, seed INTEGER NOT NULL,
-                 samples TEXT NOT NULL, PRIMARY KEY (params, seed));",
+                 samples TEXT NOT NULL, PRIMARY KEY (params, seed));
+             CREATE TABLE IF NOT EXISTS timeseries (params TEXT NOT NULL, seed INTEGER NOT NULL,
+                 series TEXT NOT NULL, PRIMARY KEY (params, seed));
+             CREATE TABLE IF NOT EXISTS scenarios (sha256 TEXT PRIMARY KEY, file TEXT NOT NULL,
+                 toml TEXT NOT NULL);",
             metrics.join(", ")
         ))
         .with_context(|| format!("creating the tables of {}", path.display()))?;
-        let known = columns_of(&conn, "main")?.into_iter().collect();
-        Ok(Store { conn, known })
+        let mut store = Store {
+            conn,
+            known: HashSet::new(),
+        };
+        // Stores made before provenance was recorded get its columns (empty in old rows).
+        let want: Vec<String> = PROVENANCE.iter().map(|s| s.to_string()).collect();
+        store.ensure_columns(&want)?;
+        store.known = store.columns()?.into_iter().collect();
+        Ok(store)
     }
 
     /// Opens an existing store (for reading); a missing file is an input error.
@@ -176,8 +213,55 @@ impl Store {
         Ok(())
     }
 
-    /// Records which sweep fills this store, or refuses a store made by a different one.
-    pub fn bind(&self, sweep: &Sweep, path: &Path) -> Result<(), CliError> {
+    /// Records which sweep fills this store, or refuses a store made by a different one, or
+    /// (unless `allow_mixed`) one holding trials of a build whose results can differ from this
+    /// one's: another results format, or none recorded (a store from before formats were).
+    /// `scenarios_sha256` is the digest of the sweep's scenarios for `meta`.
+    pub fn bind(
+        &self,
+        sweep: &Sweep,
+        path: &Path,
+        scenarios_sha256: &str,
+        allow_mixed: bool,
+    ) -> Result<(), CliError> {
+        let me = Writer::this();
+        let mut writers: Vec<Writer> = match self.meta("writers")? {
+            Some(w) => serde_json::from_str(&w).unwrap_or_default(),
+            None => Vec::new(),
+        };
+        let theirs: Option<u32> = self
+            .meta("results_format")?
+            .and_then(|f| f.trim().parse().ok());
+        if self.count()? > 0 && theirs != Some(me.results_format) && !allow_mixed {
+            let who = if writers.is_empty() {
+                "a Formica that recorded no results format (older than provenance)".to_string()
+            } else {
+                writers
+                    .iter()
+                    .map(Writer::describe)
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            };
+            return Err(CliError::Input(format!(
+                "{}: its trials were written by {who}; this is Formica {}. Results can differ between results formats, so resuming would mix them in one store. Use another --db, or --allow-mixed to add to it anyway (every row records the build that wrote it)",
+                path.display(),
+                me.describe()
+            )));
+        }
+        if !writers.contains(&me) {
+            writers.push(me.clone());
+            self.set_meta(
+                "writers",
+                &serde_json::to_string(&writers).context("encoding writers")?,
+            )?;
+        }
+        if theirs.is_none() {
+            self.set_meta("results_format", &me.results_format.to_string())?;
+            self.set_meta("formica_version", &me.formica_version)?;
+            self.set_meta("git_commit", &me.git_commit)?;
+            self.set_meta("platform", &me.platform)?;
+            self.set_meta("scenario_sha256", scenarios_sha256)?;
+        }
         match self.meta("digest")? {
             Some(d) if d != sweep.digest => {
                 return Err(CliError::Input(format!(
@@ -273,17 +357,14 @@ impl Store {
         Ok(n as usize)
     }
 
-    /// The columns of end-of-run fields: those neither fixed nor a varied key, in table order.
+    /// The columns of end-of-run fields: those neither fixed (head, metrics, provenance) nor a
+    /// varied key, in table order.
     pub fn extra_columns(&self) -> Result<Vec<String>, CliError> {
         let keys = self.keys()?;
         Ok(self
             .columns()?
             .into_iter()
-            .filter(|c| {
-                !HEAD.contains(&c.as_str())
-                    && !METRICS.iter().any(|(m, _)| m == c)
-                    && !keys.contains(c)
-            })
+            .filter(|c| !is_fixed_column(c) && !keys.contains(c))
             .collect())
     }
 
@@ -293,6 +374,11 @@ impl Store {
             if row.values.iter().any(|(v, _)| v == k) {
                 return Err(CliError::Input(format!(
                     "end-of-run field `{k}` has the name of a varied key; rename one of them"
+                )));
+            }
+            if is_fixed_column(k) {
+                return Err(CliError::Input(format!(
+                    "end-of-run field `{k}` has the name of a column of every result store; rename it"
                 )));
             }
             if self.known.contains(k) {
@@ -351,6 +437,16 @@ impl Store {
             cols.push(ident(name));
             vals.push(v);
         }
+        let p = &row.provenance;
+        for (name, v) in PROVENANCE.iter().zip([
+            &p.formica_version,
+            &p.git_commit,
+            &p.scenario_sha256,
+            &p.platform,
+        ]) {
+            cols.push(ident(name));
+            vals.push(SqlValue::Text(v.clone()));
+        }
         for (k, v) in &r.extra {
             cols.push(ident(k));
             vals.push(sql_of_json(v));
@@ -374,17 +470,41 @@ impl Store {
             )
             .context("storing a trajectory")?;
         }
+        if let Some(series) = &row.timeseries {
+            tx.execute(
+                "INSERT OR REPLACE INTO timeseries (params, seed, series) VALUES (?1, ?2, ?3)",
+                params![row.params, r.seed as i64, series],
+            )
+            .context("storing a time series")?;
+        }
         tx.commit().context("committing a trial")?;
         Ok(())
     }
 
     /// Every stored trial, in grid order.
     pub fn results(&self) -> Result<Vec<StoredTrial>, CliError> {
+        self.select("", [])
+    }
+
+    /// The stored trial with grid index `trial`, if any.
+    pub fn trial(&self, trial: usize) -> Result<Option<StoredTrial>, CliError> {
+        Ok(self
+            .select("WHERE trial = ?1", [trial as i64])?
+            .into_iter()
+            .next())
+    }
+
+    fn select(
+        &self,
+        filter: &str,
+        args: impl rusqlite::Params,
+    ) -> Result<Vec<StoredTrial>, CliError> {
         let extras = self.extra_columns()?;
-        let fixed = HEAD.len() + METRICS.len();
+        let fixed = HEAD.len() + METRICS.len() + PROVENANCE.len();
         let sel: Vec<String> = HEAD
             .iter()
             .chain(METRICS.iter().map(|(n, _)| n))
+            .chain(PROVENANCE)
             .copied()
             .chain(extras.iter().map(String::as_str))
             .map(ident)
@@ -392,19 +512,30 @@ impl Store {
         let mut st = self
             .conn
             .prepare(&format!(
-                "SELECT {} FROM trials ORDER BY trial, seed",
+                "SELECT {} FROM trials {filter} ORDER BY trial, seed",
                 sel.join(", ")
             ))
             .context("reading trials")?;
+        // Column positions by name: the selection is HEAD, METRICS, PROVENANCE, then extras.
+        let names: Vec<&str> = HEAD
+            .iter()
+            .chain(METRICS.iter().map(|(n, _)| n))
+            .chain(PROVENANCE)
+            .copied()
+            .collect();
+        let at = |name: &str| names.iter().position(|n| *n == name).unwrap_or(usize::MAX);
         let rows = st
-            .query_map([], |r| {
-                let outcome: String = r.get(6)?;
+            .query_map(args, |r| {
+                let outcome: String = r.get(at("outcome"))?;
                 let outcome = match outcome.as_str() {
                     "success" => Outcome::Success,
                     "wall" => Outcome::Wall,
                     _ => Outcome::Timeout,
                 };
-                let params: String = r.get(1)?;
+                let params: String = r.get(at("params"))?;
+                let text = |i: usize| -> rusqlite::Result<String> {
+                    Ok(r.get::<_, Option<String>>(i)?.unwrap_or_default())
+                };
                 let mut extra = BTreeMap::new();
                 for (i, k) in extras.iter().enumerate() {
                     if let Some(v) = json_of_sql(r.get(fixed + i)?) {
@@ -412,28 +543,43 @@ impl Store {
                     }
                 }
                 Ok(StoredTrial {
+                    trial: r.get::<_, i64>(at("trial"))? as usize,
+                    provenance: Provenance {
+                        formica_version: text(at("formica_version"))?,
+                        git_commit: text(at("git_commit"))?,
+                        scenario_sha256: text(at("scenario_sha256"))?,
+                        platform: text(at("platform"))?,
+                    },
                     params: serde_json::from_str(&params).unwrap_or_default(),
                     params_json: params,
                     result: RunResult {
-                        scenario: r.get(3)?,
-                        seed: r.get::<_, i64>(2)? as u64,
+                        scenario: r.get(at("scenario_name"))?,
+                        seed: r.get::<_, i64>(at("seed"))? as u64,
                         outcome,
-                        sim_time_s: r.get(7)?,
-                        ticks: r.get::<_, i64>(8)? as u64,
-                        robots: r.get::<_, i64>(5)? as usize,
-                        controller: r.get(4)?,
-                        goal_distance_m: r.get(9)?,
-                        object_path_m: r.get(10)?,
-                        path_efficiency: r.get(11)?,
-                        object_robots: r.get::<_, Option<i64>>(12)?.map(|n| n as usize),
-                        fill_time_s: r.get(13)?,
-                        convexity_before: r.get(14)?,
-                        convexity_after: r.get(15)?,
-                        cavity_filled: r.get(16)?,
-                        cavity_capacity: r.get::<_, Option<i64>>(17)?.map(|n| n as usize),
-                        cavity_robots: r.get::<_, Option<i64>>(18)?.map(|n| n as usize),
-                        false_stops: r.get::<_, Option<i64>>(19)?.map(|n| n as usize),
-                        wall_time_s: r.get(20)?,
+                        sim_time_s: r.get(at("sim_time_s"))?,
+                        ticks: r.get::<_, i64>(at("ticks"))? as u64,
+                        robots: r.get::<_, i64>(at("robots"))? as usize,
+                        controller: r.get(at("controller"))?,
+                        goal_distance_m: r.get(at("goal_distance_m"))?,
+                        object_path_m: r.get(at("object_path_m"))?,
+                        path_efficiency: r.get(at("path_efficiency"))?,
+                        object_robots: r
+                            .get::<_, Option<i64>>(at("object_robots"))?
+                            .map(|n| n as usize),
+                        fill_time_s: r.get(at("fill_time_s"))?,
+                        convexity_before: r.get(at("convexity_before"))?,
+                        convexity_after: r.get(at("convexity_after"))?,
+                        cavity_filled: r.get(at("cavity_filled"))?,
+                        cavity_capacity: r
+                            .get::<_, Option<i64>>(at("cavity_capacity"))?
+                            .map(|n| n as usize),
+                        cavity_robots: r
+                            .get::<_, Option<i64>>(at("cavity_robots"))?
+                            .map(|n| n as usize),
+                        false_stops: r
+                            .get::<_, Option<i64>>(at("false_stops"))?
+                            .map(|n| n as usize),
+                        wall_time_s: r.get(at("wall_time_s"))?,
                         extra,
                     },
                 })
@@ -473,6 +619,38 @@ impl Store {
         Ok(out)
     }
 
+    /// Keeps a parameter set's scenario (as run) under its digest.
+    pub fn add_scenario(&self, sha256: &str, file: &str, toml: &str) -> Result<(), CliError> {
+        self.conn
+            .execute(
+                "INSERT OR IGNORE INTO scenarios (sha256, file, toml) VALUES (?1, ?2, ?3)",
+                [sha256, file, toml],
+            )
+            .context("storing a scenario")?;
+        Ok(())
+    }
+
+    /// A kept scenario: its file name and TOML text.
+    pub fn scenario(&self, sha256: &str) -> Result<Option<(String, String)>, CliError> {
+        Ok(self
+            .conn
+            .query_row(
+                "SELECT file, toml FROM scenarios WHERE sha256 = ?1",
+                [sha256],
+                |r| Ok((r.get(0)?, r.get(1)?)),
+            )
+            .optional()
+            .context("reading a scenario")?)
+    }
+
+    /// The builds that wrote into the store (`meta` key `writers`).
+    pub fn writers(&self) -> Result<Vec<Writer>, CliError> {
+        Ok(match self.meta("writers")? {
+            Some(w) => serde_json::from_str(&w).context("decoding meta writers")?,
+            None => Vec::new(),
+        })
+    }
+
     /// The varied keys recorded in the store.
     pub fn keys(&self) -> Result<Vec<String>, CliError> {
         Ok(match self.meta("keys")? {
@@ -487,6 +665,10 @@ pub type StoredTrajectory = (String, u64, Vec<[f64; 4]>);
 
 /// One trial read back from a store.
 pub struct StoredTrial {
+    /// Index in the sweep's grid (what `--trial` takes).
+    pub trial: usize,
+    /// Which build wrote it (empty in stores from before provenance).
+    pub provenance: Provenance,
     /// Parameter set.
     pub params: serde_json::Map<String, serde_json::Value>,
     /// Its canonical JSON.
@@ -527,6 +709,36 @@ mod tests {
                 ..RunResult::default()
             },
             trajectory: None,
+            timeseries: None,
+            provenance: Provenance {
+                formica_version: "v".into(),
+                git_commit: "c".into(),
+                scenario_sha256: "s".into(),
+                platform: "p".into(),
+            },
+        }
+    }
+
+    #[test]
+    fn end_of_run_fields_read_back_as_core_says_a_store_keeps_them() {
+        for v in [
+            serde_json::json!(null),
+            serde_json::json!(true),
+            serde_json::json!(false),
+            serde_json::json!(7),
+            serde_json::json!(-7),
+            serde_json::json!(u64::MAX),
+            serde_json::json!(1.0),
+            serde_json::json!(0.1),
+            serde_json::json!("text"),
+            serde_json::json!([1, 2]),
+            serde_json::json!({ "a": 1 }),
+        ] {
+            assert_eq!(
+                json_of_sql(sql_of_json(&v)),
+                formica::experiment::extra_as_stored(&v),
+                "{v}"
+            );
         }
     }
 
@@ -557,6 +769,20 @@ mod tests {
         );
         assert_eq!(extra(1), serde_json::json!({}));
         assert_eq!(extra(2), serde_json::json!({ "c": 7 }));
+        // The provenance columns come before the end-of-run fields and read back as written.
+        let cols = store.columns().unwrap();
+        let at = |c: &str| cols.iter().position(|x| x == c).unwrap();
+        assert!(at("platform") < at("a"), "{cols:?}");
+        assert_eq!(back[2].provenance, row(3, serde_json::json!({})).provenance);
+        // A field named like a fixed column is refused too.
+        let fixed = store
+            .insert(&row(5, serde_json::json!({ "git_commit": "x" })))
+            .err()
+            .map(|e| match e {
+                CliError::Input(m) => m,
+                CliError::Other(e) => e.to_string(),
+            });
+        assert!(fixed.is_some_and(|m| m.contains("column of every result store")));
         // A field named like a varied key is refused, not stored under the key's column.
         let e = store
             .insert(&row(4, serde_json::json!({ "robots.0.count": 1 })))

@@ -186,9 +186,7 @@ fn parse_seeds(s: &toml::Value) -> Result<Vec<u64>, String> {
         }
         toml::Value::String(r) => crate::cmd_run::seed_range(r)
             .map(|s| s.collect())
-            .ok_or_else(|| {
-                format!("seeds: expected \"A..B\" (inclusive, A <= B) or a list, got `{r}`")
-            }),
+            .map_err(|m| format!("seeds: {m} (or a list of seeds)")),
         other => Err(format!("{expected}, found {other}")),
     }
 }
@@ -249,6 +247,14 @@ impl Sweep {
             let mut combos: Vec<Params> =
                 vec![case.iter().map(|(k, v)| (k.clone(), v.clone())).collect()];
             for (k, values) in &vary {
+                let n = (grid.len() + combos.len() * values.len()) as u64;
+                if n.saturating_mul(seeds.len() as u64) > formica::limits::MAX_TRIALS {
+                    return Err(input(format!(
+                        "`{k}`: the grid has more than {} trials (parameter sets times seeds); \
+                         split the sweep",
+                        formica::limits::MAX_TRIALS
+                    )));
+                }
                 let mut next = Vec::with_capacity(combos.len() * values.len());
                 for c in &combos {
                     for v in values {
@@ -260,6 +266,14 @@ impl Sweep {
                 combos = next;
             }
             grid.extend(combos);
+        }
+        if (grid.len() as u64).saturating_mul(seeds.len() as u64) > formica::limits::MAX_TRIALS {
+            return Err(input(format!(
+                "{} parameter sets times {} seeds is more than {} trials; split the sweep",
+                grid.len(),
+                seeds.len(),
+                formica::limits::MAX_TRIALS
+            )));
         }
         let mut keys: Vec<String> = Vec::new();
         for p in &grid {

@@ -321,3 +321,69 @@ fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn seed_range_too_large_is_refused() {
+    let sc = repo("scenarios/seed-transport.toml");
+    for (range, msg) in [
+        (
+            "0..18446744073709551615",
+            "expected A..B with 0 <= A <= B <= 9223372036854775807",
+        ),
+        (
+            "0..10000000",
+            "10000001 seeds; at most 10000000 trials a call",
+        ),
+        ("5..3", "expected A..B"),
+    ] {
+        let out = formica()
+            .arg("run")
+            .arg(&sc)
+            .args(["--seeds", range])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{range}: {err}");
+        assert!(err.contains(msg), "{range}: {err}");
+    }
+    let out = formica()
+        .arg("run")
+        .arg(&sc)
+        .args(["--seed", "9223372036854775808"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    // Sweep files, `--dry-run` included.
+    let dir = tmp("seed-range");
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = std::fs::canonicalize(&sc).unwrap();
+    for (seeds, vary, msg) in [
+        ("\"0..18446744073709551615\"", "", "seeds: expected A..B"),
+        (
+            "\"1..5000000\"",
+            "\"robots.0.count\" = [1, 2, 3]\n",
+            "more than 10000000 trials",
+        ),
+    ] {
+        let sweep = dir.join("s.toml");
+        std::fs::write(
+            &sweep,
+            format!(
+                "scenario = {:?}\nseeds = {seeds}\n[vary]\n{vary}\"run.duration_s\" = [1]\n",
+                base.display().to_string()
+            ),
+        )
+        .unwrap();
+        let out = formica()
+            .args(["sweep", "--dry-run"])
+            .arg(&sweep)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{seeds}: {err}");
+        assert!(
+            err.contains(msg) && err.contains("s.toml:"),
+            "{seeds}: {err}"
+        );
+    }
+}

@@ -29,8 +29,8 @@ fn record_writes_an_animated_gif() {
     let _ = std::fs::remove_dir_all(&dir);
 
     for (args, msg) in [
-        (vec!["--out", "x.mp4"], "MP4"),
-        (vec!["--out", "x.png"], ".gif"),
+        (vec!["--out", "x.webm"], ".gif or .mp4"),
+        (vec!["--out", "x.png"], ".gif or .mp4"),
         (vec!["--out", "x.gif", "--fps", "0"], "--fps"),
         (vec!["--out", "x.gif", "--width", "10"], "--width"),
     ] {

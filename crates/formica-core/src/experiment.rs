@@ -42,6 +42,13 @@ use crate::world::{Overrides, World};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// Version of what results mean. Two builds of Formica with the same results format give the
+/// same result, bit for bit, for the same scenario and seed; any change that can move a result
+/// (physics, sensing, controllers, metrics, random streams, scenario defaults) or change what a
+/// result field means bumps it, with an entry in `CHANGELOG.md`. `formica sweep` refuses to add
+/// trials to a store written with another results format.
+pub const RESULTS_FORMAT: u32 = 2;
+
 /// How a run ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
@@ -123,8 +130,10 @@ pub struct RunResult {
 }
 
 impl RunResult {
-    /// Names [`RunResult::extra`] keys cannot take: the fields of the JSON line, and the
-    /// result store's own columns (`trial`, `params`, `scenario_name`) and case key (`label`).
+    /// Names [`RunResult::extra`] keys cannot take: the fields of the JSON line, the provenance
+    /// fields every JSON line and store row of `formica` carries (`formica_version`,
+    /// `git_commit`, `scenario_sha256`, `platform`), and the result store's own columns
+    /// (`trial`, `params`, `scenario_name`) and case key (`label`).
     pub const RESERVED: &'static [&'static str] = &[
         "scenario",
         "seed",
@@ -145,6 +154,10 @@ impl RunResult {
         "cavity_robots",
         "false_stops",
         "wall_time_s",
+        "formica_version",
+        "git_commit",
+        "scenario_sha256",
+        "platform",
         "trial",
         "params",
         "scenario_name",
@@ -170,6 +183,55 @@ impl RunResult {
             }
         }
     }
+}
+
+/// An end-of-run field ([`RunResult::extra`]) as a result store keeps it and reads it back:
+/// numbers as they are (integers that fit an `i64` as integers, others as floats), booleans as
+/// 0 / 1, strings as they are, lists and tables as their JSON text, and `null` as no field at all.
+pub fn extra_as_stored(v: &serde_json::Value) -> Option<serde_json::Value> {
+    use serde_json::Value as J;
+    match v {
+        J::Null => None,
+        J::Bool(b) => Some(i64::from(*b).into()),
+        J::Number(n) => match (n.as_i64(), n.as_f64()) {
+            (Some(i), _) => Some(i.into()),
+            (None, Some(f)) => serde_json::Number::from_f64(f).map(J::Number),
+            (None, None) => Some(J::String(n.to_string())),
+        },
+        J::String(s) => Some(J::String(s.clone())),
+        other => Some(J::String(other.to_string())),
+    }
+}
+
+/// How result `b` differs from `a`, field by field, leaving out the wall-clock time: one
+/// `field: a, b` line per difference, none when a replay reproduced a stored result. Every
+/// field counts, the end-of-run fields of loop functions too; those compare as a result store
+/// keeps them ([`extra_as_stored`]), so a fresh result matches its stored copy.
+pub fn result_differences(a: &RunResult, b: &RunResult) -> Vec<String> {
+    let json = |r: &RunResult| {
+        let mut r = r.clone();
+        r.extra = r
+            .extra
+            .iter()
+            .filter_map(|(k, v)| extra_as_stored(v).map(|v| (k.clone(), v)))
+            .collect();
+        match serde_json::to_value(&r) {
+            Ok(serde_json::Value::Object(mut m)) => {
+                m.remove("wall_time_s");
+                m
+            }
+            _ => serde_json::Map::new(),
+        }
+    };
+    let (a, b) = (json(a), json(b));
+    let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    let show = |v: Option<&serde_json::Value>| v.map_or_else(|| "none".into(), |v| v.to_string());
+    keys.into_iter()
+        .filter(|k| a.get(*k) != b.get(*k))
+        .map(|k| format!("{k}: {}, {}", show(a.get(k)), show(b.get(k))))
+        .collect()
 }
 
 /// One recorded sample of a trajectory.
@@ -493,5 +555,49 @@ fn record(world: &World, tr: &mut Trajectories, robots: bool) {
                 });
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn differences_cover_end_of_run_fields_as_a_store_keeps_them() {
+        let fresh = RunResult {
+            seed: 3,
+            wall_time_s: 1.0,
+            extra: [
+                ("never".to_string(), serde_json::Value::Null),
+                ("flag".to_string(), true.into()),
+                ("list".to_string(), serde_json::json!([1, 2])),
+                ("fraction".to_string(), 0.25.into()),
+            ]
+            .into_iter()
+            .collect(),
+            ..RunResult::default()
+        };
+        // What a result store reads back: no null field, 0 / 1, JSON text.
+        let stored = RunResult {
+            wall_time_s: 2.0,
+            extra: fresh
+                .extra
+                .iter()
+                .filter_map(|(k, v)| extra_as_stored(v).map(|v| (k.clone(), v)))
+                .collect(),
+            ..fresh.clone()
+        };
+        assert_eq!(stored.extra["flag"], 1);
+        assert_eq!(stored.extra["list"], "[1,2]");
+        assert!(!stored.extra.contains_key("never"));
+        assert!(result_differences(&stored, &fresh).is_empty());
+        // Every other change to an end-of-run field is one.
+        let mut moved = fresh.clone();
+        moved.extra.insert("fraction".into(), 0.5.into());
+        moved.extra.insert("new".into(), 1.into());
+        assert_eq!(
+            result_differences(&stored, &moved),
+            ["fraction: 0.25, 0.5", "new: none, 1"]
+        );
     }
 }

@@ -4,6 +4,7 @@
 //! decomposition, hulls, point tests) is done by parry2d; this module only adapts it to the
 //! shapes that scenario files describe.
 
+use crate::limits::MIN_SIZE_M;
 use crate::ops;
 use rapier2d::parry::shape::{Compound, SharedShape, TriMesh};
 use rapier2d::parry::transformation::convex_hull as convex_hull2;
@@ -93,19 +94,24 @@ pub struct Part {
 pub struct ShapeError(pub String);
 
 impl Primitive {
-    /// Checks the primitive is well formed (positive sizes, simple polygon).
+    /// Checks the primitive is well formed: sizes of at least [`MIN_SIZE_M`], a simple
+    /// polygon with no repeated or collinear vertices, regular polygons with sides of at least
+    /// [`MIN_SIZE_M`].
     pub fn validate(&self) -> Result<(), ShapeError> {
+        let min = MIN_SIZE_M;
         match self {
             Primitive::Box([w, h]) => {
-                if !(*w > 0.0 && *h > 0.0 && w.is_finite() && h.is_finite()) {
+                if !(*w >= min && *h >= min && w.is_finite() && h.is_finite()) {
                     return Err(ShapeError(format!(
-                        "box size must be two positive numbers, got [{w}, {h}]"
+                        "box size must be two numbers of at least {min} m, got [{w}, {h}]"
                     )));
                 }
             }
             Primitive::Disc(r) => {
-                if !(*r > 0.0 && r.is_finite()) {
-                    return Err(ShapeError(format!("disc radius must be positive, got {r}")));
+                if !(*r >= min && r.is_finite()) {
+                    return Err(ShapeError(format!(
+                        "disc radius must be at least {min} m, got {r}"
+                    )));
                 }
             }
             Primitive::Polygon(v) => {
@@ -113,9 +119,11 @@ impl Primitive {
                 check_simple_polygon(&pts)?;
             }
             Primitive::Regular { sides, radius } => {
-                if *sides < 3 || !(*radius > 0.0) {
+                let side = 2.0 * radius * ops::sin(std::f32::consts::PI / *sides.max(&1) as f32);
+                if *sides < 3 || !(*radius >= min && radius.is_finite() && side >= min) {
                     return Err(ShapeError(format!(
-                        "regular polygon needs sides >= 3 and radius > 0, got sides = {sides}, radius = {radius}"
+                        "regular polygon needs sides >= 3, radius >= {min} m and sides at least \
+                         {min} m long, got sides = {sides}, radius = {radius}"
                     )));
                 }
             }
@@ -151,6 +159,12 @@ impl Primitive {
     /// The collision shape of this primitive.
     pub fn shared_shape(&self) -> Result<SharedShape, ShapeError> {
         self.validate()?;
+        // The validator should let nothing through that parry cannot take; should it still
+        // panic (hull, triangulation, decomposition), the panic becomes an input error.
+        no_panic("the shape", || self.shared_shape_unchecked())?
+    }
+
+    fn shared_shape_unchecked(&self) -> Result<SharedShape, ShapeError> {
         Ok(match self {
             Primitive::Box([w, h]) => SharedShape::cuboid(w / 2.0, h / 2.0),
             Primitive::Disc(r) => SharedShape::ball(*r),
@@ -183,8 +197,18 @@ fn regular_outline(n: usize, r: f32) -> Vec<Vec2> {
         .collect()
 }
 
+/// Runs `f`, turning a panic inside it (in parry) into a [`ShapeError`] about `what`.
+fn no_panic<T>(what: &str, f: impl FnOnce() -> T) -> Result<T, ShapeError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f))
+        .map_err(|_| ShapeError(format!("{what} is too degenerate for the collision engine")))
+}
+
 /// Builds one collision shape from parts placed in a common frame.
 pub fn compound_shape(parts: &[Part]) -> Result<SharedShape, ShapeError> {
+    no_panic("the object", || compound_shape_unchecked(parts))?
+}
+
+fn compound_shape_unchecked(parts: &[Part]) -> Result<SharedShape, ShapeError> {
     if parts.is_empty() {
         return Err(ShapeError("an object needs at least one part".into()));
     }
@@ -289,11 +313,27 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
         return Err(ShapeError("polygon vertices must be finite numbers".into()));
     }
     for i in 0..n {
-        if (pts[i] - pts[(i + 1) % n]).length() < 1e-6 {
+        let (a, b) = (pts[i], pts[(i + 1) % n]);
+        if (a - b).length() < MIN_SIZE_M {
             return Err(ShapeError(format!(
-                "polygon vertices {} and {} coincide",
+                "polygon vertices {} and {} coincide (closer than {MIN_SIZE_M} m)",
                 i + 1,
                 (i + 1) % n + 1
+            )));
+        }
+    }
+    for i in 0..n {
+        let (a, b, c) = (pts[i], pts[(i + 1) % n], pts[(i + 2) % n]);
+        // The turn at `b`, relative to the two edges' lengths: a vertex on the line through
+        // its neighbours adds nothing (straight on) or folds the outline back on itself (a
+        // spike of no width).
+        let (e, f) = (b - a, c - b);
+        if e.perp_dot(f).abs() <= 1e-5 * e.length() * f.length() {
+            return Err(ShapeError(format!(
+                "polygon vertex {} lies on the line through vertices {} and {} (collinear)",
+                (i + 1) % n + 1,
+                i + 1,
+                (i + 2) % n + 1
             )));
         }
     }
@@ -314,20 +354,59 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
             }
         }
     }
-    if signed_area(pts).abs() < 1e-8 {
-        return Err(ShapeError("polygon has zero area".into()));
+    if signed_area(pts).abs() < MIN_SIZE_M * MIN_SIZE_M {
+        return Err(ShapeError(format!(
+            "polygon has zero area (less than {MIN_SIZE_M} m squared)"
+        )));
     }
     Ok(())
 }
 
-/// Convex hull of a point set, counter-clockwise.
+/// Convex hull of a point set, counter-clockwise. Non-finite points are left out; should
+/// parry's hull panic on degenerate input, a monotone-chain hull in `f64` stands in.
 pub fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
+    let finite: Vec<Vec2> = points.iter().copied().filter(|p| p.is_finite()).collect();
+    let points = &finite[..];
     if points.len() < 3 {
         return points.to_vec();
     }
-    let mut hull = convex_hull2(points);
+    let mut hull = no_panic("", || convex_hull2(points)).unwrap_or_else(|_| monotone_hull(points));
     if signed_area(&hull) < 0.0 {
         hull.reverse();
+    }
+    hull
+}
+
+/// Andrew's monotone-chain convex hull (counter-clockwise, collinear points dropped), with
+/// cross products in `f64`: cannot panic.
+fn monotone_hull(points: &[Vec2]) -> Vec<Vec2> {
+    let mut pts = points.to_vec();
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let cross = |o: Vec2, a: Vec2, b: Vec2| {
+        (f64::from(a.x) - f64::from(o.x)) * (f64::from(b.y) - f64::from(o.y))
+            - (f64::from(a.y) - f64::from(o.y)) * (f64::from(b.x) - f64::from(o.x))
+    };
+    let mut hull: Vec<Vec2> = Vec::with_capacity(2 * pts.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &Vec2>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
     }
     hull
 }

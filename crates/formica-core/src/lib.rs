@@ -23,6 +23,7 @@ pub mod controller;
 pub mod controllers;
 pub mod experiment;
 pub mod geometry;
+pub mod limits;
 pub mod metrics;
 pub mod noise;
 pub mod ops;
@@ -31,6 +32,7 @@ pub mod registry;
 pub mod robot;
 pub mod scenario;
 pub mod sensors;
+pub mod timeseries;
 pub mod world;
 
 pub use experiment::{run, LoopFunctions, Outcome, RunOptions, RunResult, Trajectories};

@@ -166,8 +166,26 @@ fn in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2) -> bool {
 /// and 16 offsets, and laid along every edge of the object and its hull with the first row
 /// touching that edge; the best count is kept. A lower bound of the best packing (the tests
 /// check it on cavities counted by hand); a cavity narrower than a robot has capacity 0.
+///
+/// An object so large that one lattice over its hull would have more than
+/// [`MAX_PACKING_POINTS`] points (its cavity would hold some hundred thousand robots) is not
+/// packed: its capacity is estimated as the cavity's area over the area each disc takes in a
+/// hexagonal packing (`2 sqrt(3) radius^2`), so that the cost stays bounded.
 pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
     let hull = object_hull(world, obj);
+    if !(radius > 0.0) || hull.len() < 3 {
+        return 0;
+    }
+    let (lo, hi) = hull.iter().fold(
+        (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let per_axis = f64::from((hi - lo).length() + 4.0 * radius) / f64::from(2.0 * radius) + 1.0;
+    if per_axis * per_axis > MAX_PACKING_POINTS as f64 {
+        let cavity = fill_areas(world, obj, &[]).cavity;
+        let per_disc = 2.0 * 3f64.sqrt() * f64::from(radius) * f64::from(radius);
+        return (cavity / per_disc).floor() as usize;
+    }
     let body = world.objects[obj].body;
     let fits = |p: Vec2| {
         if inside_depth(&hull, p) < radius {

@@ -179,7 +179,13 @@ struct NeighbourIndex {
     items: Vec<(Vec2, u32)>,
     fixture_boxes: Vec<Aabb>,
     max_radius: f32,
+    /// The area the grid covers (the arena and its walls); robots outside it fall in its
+    /// border cells.
+    area: Option<(Vec2, Vec2)>,
 }
+
+/// Most cells of the neighbour grid, whatever the arena.
+const MAX_CELLS: usize = 1 << 22;
 
 /// Side of a neighbour-index cell (m): about a Khepera's proximity reach.
 const CELL_M: f32 = 0.3;
@@ -807,6 +813,12 @@ impl Physics {
         self.world.impulse_joints.remove(id.0, true);
     }
 
+    /// Sets the area the neighbour grid covers (the arena and its walls; see
+    /// [`Physics::rebuild_index`]).
+    pub fn set_index_area(&mut self, lo: Vec2, hi: Vec2) {
+        self.index.area = Some((lo, hi));
+    }
+
     /// Rebuilds the neighbour index from the current positions. Call once per tick, after the
     /// physics steps and before sensing.
     pub fn rebuild_index(&mut self) {
@@ -832,17 +844,27 @@ impl Physics {
             idx.ny = 0;
             return;
         }
-        // Keep the grid at most a few cells per robot, whatever the spread.
+        // The grid covers the arena (or, without one, the robots' spread), in cells of about a
+        // proximity reach, at most a few per robot and at most `MAX_CELLS`.
+        if let Some(area) = idx.area {
+            (lo, hi) = area;
+        }
         let span = (hi - lo).max(Vec2::splat(1e-3));
-        let mut cell = CELL_M;
-        let budget = 4.0 * idx.items.len() as f32 + 1024.0;
+        let mut cell = CELL_M.max(2.0 * idx.max_radius);
+        let budget = (4 * idx.items.len() + 1024).min(MAX_CELLS) as f32;
         if (span.x / cell + 1.0) * (span.y / cell + 1.0) > budget {
-            cell = ((span.x * span.y) / budget).sqrt().max(CELL_M);
+            // Both the area and the longer side bound the count: (a + 1)(b + 1) <= budget.
+            let by_area = (4.0 * span.x * span.y / budget).sqrt();
+            let by_side = 4.0 * span.x.max(span.y) / budget;
+            cell = by_area.max(by_side).max(cell);
+        }
+        if !cell.is_finite() {
+            cell = f32::MAX;
         }
         idx.cell = cell;
         idx.min = lo;
-        idx.nx = (span.x / cell).floor() as usize + 1;
-        idx.ny = (span.y / cell).floor() as usize + 1;
+        idx.nx = ((span.x / cell).floor() as usize).clamp(0, MAX_CELLS) + 1;
+        idx.ny = ((span.y / cell).floor() as usize).clamp(0, MAX_CELLS / idx.nx) + 1;
         let cells = idx.nx * idx.ny;
         let cell_of = |p: Vec2, idx: &NeighbourIndex| {
             let cx = (((p.x - idx.min.x) / idx.cell) as usize).min(idx.nx - 1);
@@ -870,7 +892,8 @@ impl Physics {
 
     /// Colliders within the square of half-side `radius` around `center` (walls and objects
     /// by bounding box, robots by position), appended to `out` after clearing it. Uses the
-    /// index from the last [`Physics::rebuild_index`].
+    /// index from the last [`Physics::rebuild_index`]. Walls and objects come first, then robots
+    /// in robot order, whatever the grid.
     pub fn nearby(&self, center: Vec2, radius: f32, out: &mut Vec<Nearby>) {
         out.clear();
         let idx = &self.index;
@@ -883,12 +906,11 @@ impl Physics {
         if idx.nx == 0 {
             return;
         }
+        let first_robot = out.len();
         let reach = radius + idx.max_radius;
         let lo = center - Vec2::splat(reach) - idx.min;
         let hi = center + Vec2::splat(reach) - idx.min;
-        if hi.x < 0.0 || hi.y < 0.0 {
-            return;
-        }
+        // Robots outside the grid are in its border cells: clamp rather than skip.
         let x0 = ((lo.x / idx.cell).max(0.0) as usize).min(idx.nx - 1);
         let y0 = ((lo.y / idx.cell).max(0.0) as usize).min(idx.ny - 1);
         let x1 = ((hi.x / idx.cell) as usize).min(idx.nx - 1);
@@ -906,6 +928,11 @@ impl Physics {
                 }
             }
         }
+        // In robot order, not cell order: what sensors see does not depend on the grid.
+        out[first_robot..].sort_unstable_by_key(|n| match n.tag {
+            Tag::Robot(i) => i,
+            _ => usize::MAX,
+        });
     }
 
     /// The bounding box (min, max corners) of a wall or object found by [`Physics::nearby`], as
@@ -983,6 +1010,15 @@ impl Physics {
         let pose = rapier2d::math::Pose::from_translation(center);
         self.world.colliders.iter().find_map(|(_, c)| {
             rapier2d::parry::query::intersection_test(&pose, &ball, c.position(), c.shape())
+                .is_ok_and(|r| r.intersecting)
+                .then(|| Tag::decode(c.user_data))
+        })
+    }
+
+    /// The first collider that `shape` at `pose` intersects, if any.
+    pub fn shape_overlaps(&self, shape: &SharedShape, pose: rapier2d::math::Pose) -> Option<Tag> {
+        self.world.colliders.iter().find_map(|(_, c)| {
+            rapier2d::parry::query::intersection_test(&pose, &**shape, c.position(), c.shape())
                 .is_ok_and(|r| r.intersecting)
                 .then(|| Tag::decode(c.user_data))
         })

@@ -5,6 +5,7 @@
 //! reference; `scenarios/` holds worked examples.
 
 use crate::geometry::{Part, Primitive};
+use crate::limits;
 use crate::noise::{self, NoiseModel, NoisePreset};
 use crate::registry::Registry;
 use crate::robot::ModelKind;
@@ -827,6 +828,34 @@ impl Scenario {
         file: &str,
         registry: &Registry,
     ) -> Result<Scenario, ScenarioError> {
+        let invalid = |at: usize, message: String| {
+            let (line, column) = line_col(text, at);
+            ScenarioError::Invalid {
+                file: file.to_string(),
+                line,
+                column,
+                message,
+            }
+        };
+        if text.len() > limits::MAX_FILE_BYTES {
+            return Err(invalid(
+                0,
+                format!(
+                    "the file has {} bytes, more than the {} a scenario may have",
+                    text.len(),
+                    limits::MAX_FILE_BYTES
+                ),
+            ));
+        }
+        if let Some(at) = limits::too_deep(text) {
+            return Err(invalid(
+                at,
+                format!(
+                    "arrays and inline tables nested more than {} deep",
+                    limits::MAX_NESTING
+                ),
+            ));
+        }
         if let Some((at, token)) = non_finite_literal(text) {
             let (line, column) = line_col(text, at);
             return Err(ScenarioError::Invalid {
@@ -837,13 +866,15 @@ impl Scenario {
             });
         }
         let spec: ScenarioSpec = toml::from_str(text).map_err(|e| {
-            let (line, column) = line_col(text, e.span().map_or(0, |s| s.start));
-            ScenarioError::Invalid {
-                file: file.to_string(),
-                line,
-                column,
-                message: e.message().trim().to_string(),
-            }
+            let message = e.message().trim().to_string();
+            // A whole-file error (a missing top-level key) has no span: point at the file's
+            // first entry, where the key belongs, rather than at 1:1 (a comment, often).
+            let at = e
+                .span()
+                .filter(|s| s.start > 0)
+                .or_else(|| limits::span_of(text, ""))
+                .map_or(0, |s| s.start);
+            invalid(at, message)
         })?;
         let name = spec.name.clone().unwrap_or_else(|| {
             std::path::Path::new(file)
@@ -1020,6 +1051,13 @@ impl Scenario {
         }
     }
 
+    /// An error at the key `path` (`run.tick_hz`, `objects[0].at[1]`) as the source writes it,
+    /// or, for a key it leaves out, at the nearest table on the way that it writes.
+    pub fn error_at_key(&self, path: &str, message: impl Into<String>) -> ScenarioError {
+        let span = limits::span_of(&self.text, path).unwrap_or(0..0);
+        self.error_at(span, message)
+    }
+
     /// The source text.
     pub fn text(&self) -> &str {
         &self.text
@@ -1132,37 +1170,25 @@ impl Scenario {
 
     fn validate(&self) -> Result<(), ScenarioError> {
         let s = &self.spec;
-        let top = |m: &str| self.error_at(0..0, m.to_string());
-        if !(s.arena.size[0] > 0.0 && s.arena.size[1] > 0.0) {
-            return Err(top("arena.size: expected two positive numbers"));
-        }
-        if !(s.run.tick_hz > 0.0 && s.run.tick_hz <= 1000.0) {
-            return Err(top("run.tick_hz: expected a number in (0, 1000]"));
-        }
-        if !(s.run.duration_s > 0.0) {
-            return Err(top("run.duration_s: expected a positive number"));
+        if s.run.seed > limits::MAX_SEED {
+            return Err(self.error_at_key(
+                "run.seed",
+                format!(
+                    "run.seed: expected 0 to {} (TOML integers are 64-bit signed), got {}",
+                    limits::MAX_SEED,
+                    s.run.seed
+                ),
+            ));
         }
         // Fail closed: the checks below rely on every number being finite.
-        let values = toml::Value::try_from(s)
-            .map_err(|e| top(&format!("internal error re-reading the scenario: {e}")))?;
+        let values = toml::Value::try_from(s).map_err(|e| {
+            self.error_at_key("", format!("internal error re-reading the scenario: {e}"))
+        })?;
         if let Some(path) = non_finite_path(&values, String::new()) {
             // Too large for 32 bits (a `nan` or `inf` literal is caught while parsing).
-            let item = |list: &str, i: usize| match list {
-                "objects" => s.objects.get(i).map(Spanned::span),
-                "robots" => s.robots.get(i).map(Spanned::span),
-                "walls" => s.walls.get(i).map(Spanned::span),
-                "lights" => s.lights.get(i).map(Spanned::span),
-                _ => None,
-            };
-            let span = path
-                .split_once('[')
-                .and_then(|(list, rest)| {
-                    let i = rest.split(']').next()?.parse().ok()?;
-                    item(list, i)
-                })
-                .unwrap_or(0..0);
-            return Err(self.error_at(span, format!("{path}: expected a finite number")));
+            return Err(self.error_at_key(&path, format!("{path}: expected a finite number")));
         }
+        limits::check(self)?;
         for (i, w) in s.walls.iter().enumerate() {
             let ws = w.get_ref();
             // Every number is finite by now (checked above for the whole file).
@@ -1460,10 +1486,10 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         let text = format!("name = \"inf nan\" # nan\n{MIN}");
         assert!(Scenario::parse(&text, "t.toml").is_ok());
         assert_eq!(non_finite_literal("x = { inf = 1.0, nan= 2 }"), None);
-        // Finite in the file, infinite as a 32-bit number: named by its key path, at its item.
+        // Finite in the file, infinite as a 32-bit number: named by its key path, where written.
         let text = MIN.replace("at = [-1.0, 0.0]", "at = [1e39, 0.0]");
         let (line, msg) = err(&text);
-        assert_eq!(line, 5);
+        assert_eq!(line, 6);
         assert!(
             msg.contains("objects[0].at[0]: expected a finite number"),
             "{msg}"
@@ -1476,16 +1502,16 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
     fn bad_lights_and_walls_are_rejected_at_their_line() {
         let light = "[[lights]]\nat = [1.0, 0.0]\nintensity = -2.0\n";
         let (line, msg) = err(&format!("{MIN}\n{light}"));
-        assert_eq!(line, MIN.lines().count() + 2);
+        assert_eq!(line, MIN.lines().count() + 4);
         assert!(
             msg.contains("lights[0]") && msg.contains("intensity"),
             "{msg}"
         );
         let wall = "[[walls]]\nat = [1.0, 0.0]\nsize = [0.0, 1.0]\n";
         let (line, msg) = err(&format!("{MIN}\n{wall}"));
-        assert_eq!(line, MIN.lines().count() + 2);
+        assert_eq!(line, MIN.lines().count() + 4);
         assert!(
-            msg.contains("walls[0]") && msg.contains("positive `size`"),
+            msg.contains("walls[0].size[0]") && msg.contains("expected 0.001 to 2000 m"),
             "{msg}"
         );
     }

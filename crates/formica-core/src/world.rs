@@ -249,6 +249,8 @@ impl World {
         for (i, wl) in walls.iter().enumerate() {
             physics.add_wall(wl.center, wl.size, wl.yaw, i);
         }
+        let outer = Vec2::new(w + t, h + t) / 2.0;
+        physics.set_index_area(c - outer, c + outer);
 
         let mut objects = Vec::new();
         for (i, o) in spec.objects.iter().enumerate() {
@@ -256,6 +258,7 @@ impl World {
             let shape = compound_shape(&parts).map_err(|e| sc.error_at(o.span(), e.0))?;
             let os = o.get_ref();
             let pose = Pose::new(os.at[0], os.at[1], os.yaw_deg.to_radians());
+            object_fits(sc, i, &shape, pose, &physics, c, Vec2::new(w, h))?;
             let body = physics.add_object(shape, pose, os.mass, os.movable, os.floor_mu, i);
             objects.push(Object {
                 name: os.name.clone().unwrap_or_else(|| format!("object{i}")),
@@ -296,7 +299,13 @@ impl World {
         let mut groups = Vec::new();
         let mut robots: Vec<Robot> = Vec::new();
         let mut place_rng = rng_stream(seed, 0, 0);
-        let mut placed: Vec<(Vec2, f32)> = Vec::new();
+        let largest_radius = spec
+            .robots
+            .iter()
+            .filter_map(|g| sc.registry().robot_model(g.get_ref().model.get_ref()))
+            .map(|m| m.radius)
+            .fold(0.0, f32::max);
+        let mut placed = Placed::new(largest_radius);
         for (g, grp_s) in spec.robots.iter().enumerate() {
             let grp = grp_s.get_ref();
             let registry = sc.registry();
@@ -714,6 +723,89 @@ impl World {
     }
 }
 
+/// Checks that object `i` (its collision shape at `pose`) starts inside the arena (centre
+/// `arena_c`, size `arena`) and overlaps no wall.
+fn object_fits(
+    sc: &Scenario,
+    i: usize,
+    shape: &rapier2d::parry::shape::SharedShape,
+    pose: Pose,
+    physics: &Physics,
+    arena_c: Vec2,
+    arena: Vec2,
+) -> Result<(), ScenarioError> {
+    let o = &sc.spec.objects[i];
+    let name = o
+        .get_ref()
+        .name
+        .as_ref()
+        .map_or(String::new(), |n| format!(" (\"{n}\")"));
+    let iso = rapier2d::math::Pose::new(pose.position(), pose.theta);
+    let bb = shape.compute_aabb(&iso);
+    let (lo, hi) = (arena_c - arena / 2.0, arena_c + arena / 2.0);
+    if !(bb.mins.x >= lo.x && bb.mins.y >= lo.y && bb.maxs.x <= hi.x && bb.maxs.y <= hi.y) {
+        return Err(sc.error_at(
+            o.span(),
+            format!(
+                "objects[{i}]{name}: reaches outside the arena: it spans ({:.3}, {:.3}) to \
+                 ({:.3}, {:.3}), the arena ({:.3}, {:.3}) to ({:.3}, {:.3})",
+                bb.mins.x, bb.mins.y, bb.maxs.x, bb.maxs.y, lo.x, lo.y, hi.x, hi.y
+            ),
+        ));
+    }
+    if let Some(Tag::Wall(j)) = physics.shape_overlaps(shape, iso) {
+        let wall = match j.checked_sub(4) {
+            Some(k) => format!("walls[{k}]"),
+            None => "an arena wall".into(),
+        };
+        return Err(sc.error_at(
+            o.span(),
+            format!("objects[{i}]{name}: starts inside {wall}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Robots placed so far, hashed on a grid of cells one largest robot diameter wide: checking a
+/// new spot against them costs the same whatever their number.
+struct Placed {
+    cell: f32,
+    cells: std::collections::HashMap<(i32, i32), Vec<(Vec2, f32)>>,
+}
+
+impl Placed {
+    fn new(largest_radius: f32) -> Self {
+        Self {
+            cell: (2.0 * largest_radius).max(1e-3),
+            cells: std::collections::HashMap::new(),
+        }
+    }
+
+    fn key(&self, p: Vec2) -> (i32, i32) {
+        // Saturating casts: positions are bounded by the scenario limits anyway.
+        (
+            (p.x / self.cell).floor() as i32,
+            (p.y / self.cell).floor() as i32,
+        )
+    }
+
+    /// Whether a disc at `p` of radius `r` (at most the largest) overlaps a placed one.
+    fn overlaps(&self, p: Vec2, r: f32) -> bool {
+        let (kx, ky) = self.key(p);
+        (-1..=1).any(|dy| {
+            (-1..=1).any(|dx| {
+                self.cells
+                    .get(&(kx.saturating_add(dx), ky.saturating_add(dy)))
+                    .is_some_and(|v| v.iter().any(|(q, rq)| (*q - p).length() < r + rq))
+            })
+        })
+    }
+
+    fn push(&mut self, p: Vec2, r: f32) {
+        self.cells.entry(self.key(p)).or_default().push((p, r));
+    }
+}
+
 /// Start poses for group `g`, checked against walls, objects, the arena and each other.
 #[expect(
     clippy::too_many_arguments,
@@ -726,7 +818,7 @@ fn place_group(
     model: &RobotModel,
     physics: &Physics,
     rng: &mut RobotRng,
-    placed: &mut Vec<(Vec2, f32)>,
+    placed: &mut Placed,
     arena_c: Vec2,
     arena: Vec2,
 ) -> Result<Vec<Pose>, ScenarioError> {
@@ -737,7 +829,7 @@ fn place_group(
         let d = p - arena_c;
         d.x.abs() < arena.x / 2.0 - r && d.y.abs() < arena.y / 2.0 - r
     };
-    let free = |p: Vec2, placed: &[(Vec2, f32)]| -> Result<(), String> {
+    let free = |p: Vec2, placed: &Placed| -> Result<(), String> {
         if let Some(tag) = physics.disc_overlaps(p, r) {
             return Err(match tag {
                 Tag::Wall(_) => "is inside a wall".into(),
@@ -748,11 +840,12 @@ fn place_group(
         if !inside(p) {
             return Err("is outside the arena".into());
         }
-        if placed.iter().any(|(q, rq)| (*q - p).length() < r + rq) {
+        if placed.overlaps(p, r) {
             return Err("overlaps another robot".into());
         }
         Ok(())
     };
+    // `count` is bounded by the scenario limits.
     let mut out = Vec::with_capacity(count);
     match grp.placement.get_ref() {
         Placement::Random {
@@ -782,7 +875,7 @@ fn place_group(
                     Some(d) => d.to_radians(),
                     None => rng.random_range(-std::f32::consts::PI..std::f32::consts::PI),
                 };
-                placed.push((p, r));
+                placed.push(p, r);
                 out.push(Pose::new(p.x, p.y, theta));
             }
         }
@@ -813,7 +906,7 @@ fn place_group(
                         ),
                     )
                 })?;
-                placed.push((p, r));
+                placed.push(p, r);
                 out.push(Pose::new(p.x, p.y, heading_deg.to_radians()));
             }
         }
@@ -826,7 +919,7 @@ fn place_group(
                         format!("robots[{g}]: robot {} at ({}, {}) {m}", k + 1, q[0], q[1]),
                     )
                 })?;
-                placed.push((p, r));
+                placed.push(p, r);
                 out.push(Pose::new(p.x, p.y, q[2].to_radians()));
             }
         }

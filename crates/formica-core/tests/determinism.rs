@@ -3,7 +3,7 @@
 mod common;
 use common::*;
 use formica::experiment::{run, RunOptions};
-use formica::Overrides;
+use formica::{Overrides, Scenario};
 
 fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h = 0xcbf2_9ce4_8422_2325u64;
@@ -14,20 +14,18 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     h
 }
 
-fn digest(seed: u64) -> (u64, String) {
-    let sc = scenario(&format!(
-        "[[lights]]\nat = [2.5, 0.0]\n{}[[robots]]\ncount = 20\ncontroller = \"random-walk\"\nplacement = {{ random = {{ min = [-2.0, -2.0], max = [2.0, 2.0] }} }}\n[run]\nduration_s = 30\n",
-        seed_box(-1.0, 0.0),
-    ));
+/// FNV-1a of the result (wall time zeroed) and of every robot's trajectory, and the result.
+fn digest_of(sc: &Scenario, seed: u64, duration_s: Option<f32>) -> (u64, String) {
     let opts = RunOptions {
         overrides: Overrides {
             seed: Some(seed),
+            duration_s,
             ..Default::default()
         },
         record: true,
         robot_every: 1,
     };
-    let (mut result, traj) = run(&sc, &opts).unwrap();
+    let (mut result, traj) = run(sc, &opts).unwrap();
     result.wall_time_s = 0.0;
     let text = format!(
         "{}{}",
@@ -40,18 +38,95 @@ fn digest(seed: u64) -> (u64, String) {
     )
 }
 
+fn digest(seed: u64) -> (u64, String) {
+    let sc = scenario(&format!(
+        "[[lights]]\nat = [2.5, 0.0]\n{}[[robots]]\ncount = 20\ncontroller = \"random-walk\"\nplacement = {{ random = {{ min = [-2.0, -2.0], max = [2.0, 2.0] }} }}\n[run]\nduration_s = 30\n",
+        seed_box(-1.0, 0.0),
+    ));
+    digest_of(&sc, seed, None)
+}
+
 #[test]
 fn same_seed_same_bits() {
     assert_eq!(digest(7), digest(7));
     assert_ne!(digest(7).0, digest(8).0);
 }
 
-/// Update only for an intended change of physics, sensors or the random-walk controller, and
-/// say so in the commit message.
+// Golden digests, one per built-in controller. Update one only for an intended change of
+// physics, sensors or that controller, and say so in the commit message: each is one line,
+// and a failing test prints the new value.
+
+/// `random-walk`: 20 robots round a box, 30 s.
 const GOLDEN: u64 = 0x8b95_54b6_c8a9_4c2f;
+/// `constant`: 6 robots driving into a movable box at two wheel speeds, 20 s.
+const GOLDEN_CONSTANT: u64 = 0x4a19_dc20_1280_a25e;
+/// `occlusion`: `scenarios/seed-transport.toml`, 30 s.
+const GOLDEN_OCCLUSION: u64 = 0x097a_eda1_f2cc_b0dc;
+/// `filling`: `scenarios/seed-fill-u.toml`, 30 s.
+const GOLDEN_FILLING: u64 = 0xe7cb_0e94_0458_af87;
+/// `fill-transport`: `scenarios/fill-transport-u.toml`, 30 s.
+const GOLDEN_FILL_TRANSPORT: u64 = 0xa990_2317_414f_ab8a;
+
+fn check_golden(name: &str, constant: &str, golden: u64, (d, json): (u64, String)) {
+    assert_eq!(
+        d, golden,
+        "{name}: digest changed to {d:#x}; if the change is intended, set {constant} to it \
+         (and say why in the commit message); result: {json}"
+    );
+}
 
 #[test]
 fn golden_digest() {
-    let (d, json) = digest(42);
-    assert_eq!(d, GOLDEN, "digest changed to {d:#x}; result: {json}");
+    check_golden("random-walk", "GOLDEN", GOLDEN, digest(42));
+}
+
+#[test]
+fn golden_digest_constant() {
+    let mut poses = String::new();
+    for k in 0..6 {
+        poses.push_str(&format!("[-1.2, {:.2}, 0.0], ", -0.5 + 0.2 * k as f32));
+    }
+    let sc = scenario(&format!(
+        "{}[[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.1, right = 0.12 }}\nplacement = {{ poses = [{poses}] }}\n[run]\nduration_s = 20\n",
+        seed_box(0.0, 0.0),
+    ));
+    check_golden(
+        "constant",
+        "GOLDEN_CONSTANT",
+        GOLDEN_CONSTANT,
+        digest_of(&sc, 42, None),
+    );
+}
+
+#[test]
+fn golden_digest_occlusion() {
+    let sc = shipped("seed-transport.toml");
+    check_golden(
+        "occlusion",
+        "GOLDEN_OCCLUSION",
+        GOLDEN_OCCLUSION,
+        digest_of(&sc, 42, Some(30.0)),
+    );
+}
+
+#[test]
+fn golden_digest_filling() {
+    let sc = shipped("seed-fill-u.toml");
+    check_golden(
+        "filling",
+        "GOLDEN_FILLING",
+        GOLDEN_FILLING,
+        digest_of(&sc, 42, Some(30.0)),
+    );
+}
+
+#[test]
+fn golden_digest_fill_transport() {
+    let sc = shipped("fill-transport-u.toml");
+    check_golden(
+        "fill-transport",
+        "GOLDEN_FILL_TRANSPORT",
+        GOLDEN_FILL_TRANSPORT,
+        digest_of(&sc, 42, Some(30.0)),
+    );
 }

@@ -4,7 +4,10 @@
 use formica::geometry::Vec2;
 use formica::ops;
 use formica::world::World;
-use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
+pub use tiny_skia::Pixmap;
+use tiny_skia::{Color, FillRule, Paint, PathBuilder, Stroke, Transform};
+
+pub mod video;
 
 /// What to draw besides the world itself.
 #[derive(Debug, Clone, Default)]
@@ -41,6 +44,14 @@ impl Frame {
             width_px,
             height_px: ((span.y * scale).ceil() as u32).max(16),
         }
+    }
+
+    /// As [`Frame::fit`], with both sides even (as H.264 video needs).
+    pub fn fit_even(world: &World, width_px: u32) -> Frame {
+        let mut f = Frame::fit(world, width_px & !1);
+        f.width_px &= !1;
+        f.height_px += f.height_px % 2;
+        f
     }
 
     /// Pixel position of a world point.
@@ -457,9 +468,88 @@ pub struct RecordSummary {
     pub ticks: u64,
 }
 
-/// Steps `run` to its end (or `max_frames`) and streams one frame every `every_ticks` ticks,
-/// plus the first and last, to a GIF written to `out`. Frames show the object's path and the
-/// goal radius, as `formica run --out` pictures do.
+/// Where [`record`] sends its frames: a GIF or a video.
+pub trait FrameSink {
+    /// Adds one frame.
+    fn push(&mut self, pm: &Pixmap) -> Result<(), String>;
+    /// Frames added so far.
+    fn frames(&self) -> usize;
+}
+
+impl<W: std::io::Write> FrameSink for GifWriter<W> {
+    fn push(&mut self, pm: &Pixmap) -> Result<(), String> {
+        GifWriter::push(self, pm)
+    }
+    fn frames(&self) -> usize {
+        GifWriter::frames(self)
+    }
+}
+
+impl<W: std::io::Write + std::io::Seek> FrameSink for video::Mp4Writer<W> {
+    fn push(&mut self, pm: &Pixmap) -> Result<(), String> {
+        video::Mp4Writer::push(self, pm)
+    }
+    fn frames(&self) -> usize {
+        video::Mp4Writer::frames(self)
+    }
+}
+
+/// Steps `run` to its end (or `max_frames`) and sends one frame of `frame`'s size every
+/// `every_ticks` ticks, plus the first and last, to `sink`. Frames show the object's path and the
+/// goal radius, as `formica run --out` pictures do. Only the frame being drawn is held.
+pub fn record(
+    run: &mut formica::experiment::Run,
+    opts: &RecordOptions,
+    frame: &Frame,
+    sink: &mut dyn FrameSink,
+) -> Result<RecordSummary, String> {
+    let target = run.world.target;
+    let mut path: Vec<Vec2> = target
+        .map(|t| run.world.object_center(t))
+        .into_iter()
+        .collect();
+    let every = opts.every_ticks.max(1);
+    let max_frames = opts.max_frames.max(1);
+    let draw_now = |run: &formica::experiment::Run, path: &[Vec2]| {
+        let overlay = Overlay {
+            path,
+            goal_radius: run.goal_radius(),
+        };
+        let mut pm = draw(&run.world, frame, &overlay);
+        if opts.occlusion {
+            let zones = occlusion_zones(&run.world, light_sensor_height(&run.world));
+            draw_zones(&mut pm, frame, &zones);
+        }
+        pm
+    };
+    sink.push(&draw_now(run, &path))?;
+    let mut outcome = run.outcome();
+    while outcome.is_none() && sink.frames() < max_frames {
+        outcome = run.step();
+        if let Some(t) = target {
+            // The path is thinned as it grows, so that a long run holds a bounded path.
+            if path.len() >= 8192 {
+                let mut k = 0;
+                path.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+            }
+            path.push(run.world.object_center(t));
+        }
+        if outcome.is_some() || run.world.tick.is_multiple_of(every) {
+            sink.push(&draw_now(run, &path))?;
+        }
+    }
+    Ok(RecordSummary {
+        frames: sink.frames(),
+        outcome,
+        sim_time_s: run.world.time_s,
+        ticks: run.world.tick,
+    })
+}
+
+/// [`record`] into an animated GIF written to `out`, with frames `opts.width_px` wide.
 pub fn record_gif<W: std::io::Write>(
     run: &mut formica::experiment::Run,
     opts: &RecordOptions,
@@ -473,44 +563,28 @@ pub fn record_gif<W: std::io::Write>(
         opts.delay_cs,
         opts.hold_cs,
     )?;
-    let target = run.world.target;
-    let mut path: Vec<Vec2> = target
-        .map(|t| run.world.object_center(t))
-        .into_iter()
-        .collect();
-    let every = opts.every_ticks.max(1);
-    let max_frames = opts.max_frames.max(1);
-    let draw_now = |run: &formica::experiment::Run, path: &[Vec2]| {
-        let overlay = Overlay {
-            path,
-            goal_radius: run.goal_radius(),
-        };
-        let mut pm = draw(&run.world, &frame, &overlay);
-        if opts.occlusion {
-            let zones = occlusion_zones(&run.world, light_sensor_height(&run.world));
-            draw_zones(&mut pm, &frame, &zones);
-        }
-        pm
-    };
-    gif.push(&draw_now(run, &path))?;
-    let mut outcome = run.outcome();
-    while outcome.is_none() && gif.frames() < max_frames {
-        outcome = run.step();
-        if let Some(t) = target {
-            path.push(run.world.object_center(t));
-        }
-        if outcome.is_some() || run.world.tick.is_multiple_of(every) {
-            gif.push(&draw_now(run, &path))?;
-        }
-    }
-    let summary = RecordSummary {
-        frames: gif.frames(),
-        outcome,
-        sim_time_s: run.world.time_s,
-        ticks: run.world.tick,
-    };
-    let w = gif.finish()?;
-    Ok((summary, w))
+    let summary = record(run, opts, &frame, &mut gif)?;
+    Ok((summary, gif.finish()?))
+}
+
+/// [`record`] into an H.264 MP4 video written to `out` at `fps` frames per second, with frames
+/// `opts.width_px` wide (rounded down to even; the height rounded up to even).
+pub fn record_mp4<W: std::io::Write + std::io::Seek>(
+    run: &mut formica::experiment::Run,
+    opts: &RecordOptions,
+    fps: u32,
+    out: W,
+) -> Result<(RecordSummary, W), String> {
+    let frame = Frame::fit_even(&run.world, opts.width_px);
+    let mut mp4 = video::Mp4Writer::new(
+        out,
+        frame.width_px,
+        frame.height_px,
+        fps,
+        f32::from(opts.hold_cs) / 100.0,
+    )?;
+    let summary = record(run, opts, &frame, &mut mp4)?;
+    Ok((summary, mp4.finish()?))
 }
 
 #[cfg(test)]

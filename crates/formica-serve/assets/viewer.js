@@ -14,11 +14,19 @@
     frames: 0,
     robotsDrawn: 0,
     highlight: -1,
+    selected: -1,
+    robot: null,
+    series: null,
     frame: null,
     toPixel(x, y) {
       const f = viewer.frame;
       if (!f) return [0, 0];
       return [(x - f.minX) * f.scale, f.h - (y - f.minY) * f.scale];
+    },
+    toWorld(px, py) {
+      const f = viewer.frame;
+      if (!f) return [0, 0];
+      return [px / f.scale + f.minX, (f.h - py) / f.scale + f.minY];
     },
   };
   window.formicaViewer = viewer;
@@ -217,11 +225,11 @@
       ctx.strokeStyle = '#000';
       ctx.lineWidth = 1.5 * lw;
       ctx.stroke();
-      if (i === viewer.highlight) {
+      if (i === viewer.highlight || i === viewer.selected) {
         ctx.beginPath();
         ctx.arc(x, y, rad + 4 * lw, 0, 2 * Math.PI);
         ctx.strokeStyle = '#e000a0';
-        ctx.lineWidth = 2 * lw;
+        ctx.lineWidth = (i === viewer.selected ? 3 : 2) * lw;
         ctx.stroke();
       }
       drawn += 1;
@@ -245,6 +253,7 @@
       tr.cells[0].textContent = String(i);
       tr.addEventListener('mouseenter', () => { viewer.highlight = i; draw(); });
       tr.addEventListener('mouseleave', () => { viewer.highlight = -1; draw(); });
+      tr.addEventListener('click', () => select(i));
       tbody.appendChild(tr);
     }
     $('robots-more').textContent = viewer.scene.robots > MAX_ROWS
@@ -288,11 +297,267 @@
         c[2].dataset.led = r.led;
       }
       c[3].textContent = r.attached ? 'yes' : '';
-      rows[i].className = i === viewer.highlight ? 'hl' : '';
+      rows[i].className = i === viewer.selected ? 'sel' : (i === viewer.highlight ? 'hl' : '');
     }
+    replayBanner();
     document.body.dataset.tick = String(st.tick);
     document.body.dataset.generation = String(st.generation);
   }
+
+  // ---- replay ----
+  function replayBanner() {
+    const el = $('replay');
+    const rp = viewer.scene && viewer.scene.replay;
+    if (!rp) { el.hidden = true; return; }
+    el.hidden = false;
+    const st = viewer.state && viewer.state.replay;
+    const stored = `${rp.stored_outcome} after ${rp.stored_time_s.toFixed(1)} s (${rp.stored_ticks} ticks)`;
+    const params = rp.params.map(([k, v]) => `${k} = ${v}`).join(', ');
+    el.textContent = `Replay of ${rp.label}, seed ${rp.seed}${params ? ' (' + params + ')' : ''}. Stored outcome: ${stored}. `;
+    const verdict = document.createElement('span');
+    let check = 'running';
+    if (!st || !st.active) {
+      check = 'inactive';
+      verdict.textContent = 'Another seed is running: restart with seed ' + rp.seed + ' to replay the trial.';
+    } else if (!st.ended) {
+      verdict.textContent = 'Running; the replay is checked when it ends.';
+    } else if (st.matches) {
+      check = 'match';
+      verdict.className = 'match';
+      verdict.textContent = '\u2713 The replay ended exactly as stored.';
+    } else {
+      check = 'differs';
+      verdict.className = 'differs';
+      verdict.textContent = '\u2717 The replay differs from the store: ' + st.differences.join('; ');
+    }
+    el.appendChild(verdict);
+    el.dataset.check = check;
+  }
+
+  // ---- small charts ----
+  const PALETTE = ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b', '#e377c2', '#7f7f7f', '#bcbd22', '#17becf'];
+  const stateColors = new Map();
+  function stateColor(name) {
+    if (!stateColors.has(name)) stateColors.set(name, PALETTE[stateColors.size % PALETTE.length]);
+    return stateColors.get(name);
+  }
+
+  function sizeCanvas(c) {
+    const dpr = window.devicePixelRatio || 1;
+    const w = Math.round(c.clientWidth * dpr) || c.width;
+    const h = Math.round(c.clientHeight * dpr) || c.height;
+    if (c.width !== w || c.height !== h) { c.width = w; c.height = h; }
+    const g = c.getContext('2d');
+    g.setTransform(1, 0, 0, 1, 0, 0);
+    g.clearRect(0, 0, w, h);
+    return [g, w, h, dpr];
+  }
+
+  // Lines of `lines` ([{ys, color}]) against `xs` on canvas `c`, with the y range labelled.
+  function linePlot(c, xs, lines, yMinFloor) {
+    const [g, w, h, dpr] = sizeCanvas(c);
+    const pad = 4 * dpr, left = 34 * dpr, bottom = 12 * dpr;
+    let lo = Infinity, hi = -Infinity;
+    for (const l of lines) for (const y of l.ys) if (y !== null && y !== undefined) { lo = Math.min(lo, y); hi = Math.max(hi, y); }
+    if (!isFinite(lo)) { lo = 0; hi = 1; }
+    if (yMinFloor !== undefined) lo = Math.min(lo, yMinFloor);
+    if (hi - lo < 1e-9) hi = lo + 1;
+    const x0 = xs.length ? xs[0] : 0, x1 = xs.length ? Math.max(xs[xs.length - 1], x0 + 1e-9) : 1;
+    const X = (x) => left + (x - x0) / (x1 - x0) * (w - left - pad);
+    const Y = (y) => pad + (1 - (y - lo) / (hi - lo)) * (h - pad - bottom);
+    g.strokeStyle = '#bbb';
+    g.lineWidth = dpr;
+    g.strokeRect(left, pad, w - left - pad, h - pad - bottom);
+    g.fillStyle = '#555';
+    g.font = `${10 * dpr}px sans-serif`;
+    g.fillText(hi.toPrecision(3), 2 * dpr, pad + 9 * dpr);
+    g.fillText(lo.toPrecision(3), 2 * dpr, h - bottom);
+    g.fillText(`${x0.toFixed(0)}-${x1.toFixed(0)} s`, left + 2 * dpr, h - 1 * dpr);
+    for (const l of lines) {
+      g.beginPath();
+      let started = false;
+      l.ys.forEach((y, k) => {
+        if (y === null || y === undefined) { started = false; return; }
+        if (!started) { g.moveTo(X(xs[k]), Y(y)); started = true; } else g.lineTo(X(xs[k]), Y(y));
+      });
+      g.strokeStyle = l.color;
+      g.lineWidth = 1.5 * dpr;
+      g.stroke();
+    }
+  }
+
+  function legend(el, names) {
+    el.textContent = '';
+    for (const n of names) {
+      const s = document.createElement('span');
+      const sw = document.createElement('span');
+      sw.className = 'swatch';
+      sw.style.background = stateColor(n);
+      s.appendChild(sw);
+      s.appendChild(document.createTextNode(n));
+      el.appendChild(s);
+    }
+  }
+
+  function drawPlots() {
+    const se = viewer.series;
+    if (!se) return;
+    linePlot($('plot-goal'), se.t_s, [{ ys: se.goal_distance_m, color: '#c81e1e' }], 0);
+    linePlot($('plot-speed'), se.t_s, [{ ys: se.object_speed_m_s, color: '#1f5fb4' }], 0);
+    linePlot($('plot-states'), se.t_s, se.states.map((n, k) => ({ ys: se.robots_in_state[k], color: stateColor(n) })), 0);
+    legend($('plot-states-legend'), se.states);
+    document.getElementById('plots').dataset.points = String(se.t_s.length);
+  }
+
+  let seriesAt = 0, seriesTick = -1;
+  async function refreshSeries(force) {
+    const st = viewer.state;
+    if (!st) return;
+    const now = Date.now();
+    if (!force && st.tick === seriesTick) return;
+    if (!force && st.playing && now - seriesAt < 1000) return;
+    seriesAt = now;
+    seriesTick = st.tick;
+    viewer.series = await api('GET', '/api/series');
+    drawPlots();
+  }
+
+  // ---- robot inspector ----
+  function select(i) {
+    viewer.selected = i;
+    viewer.robot = null;
+    $('inspect').hidden = i < 0;
+    if (viewer.state) { panel(); draw(); }
+    if (i >= 0) inspect().catch((e) => showError(e.message));
+  }
+
+  function polar(c, draw1) {
+    const [g, w, h, dpr] = sizeCanvas(c);
+    const cx = w / 2, cy = h / 2, R = Math.min(w, h) / 2 - 4 * dpr;
+    g.strokeStyle = '#ccc';
+    g.lineWidth = dpr;
+    for (const f of [0.5, 1]) { g.beginPath(); g.arc(cx, cy, R * f, 0, 2 * Math.PI); g.stroke(); }
+    // Straight ahead is up.
+    g.beginPath(); g.moveTo(cx, cy); g.lineTo(cx, cy - R); g.strokeStyle = '#999'; g.stroke();
+    const at = (bearing, f) => [cx - Math.sin(bearing) * R * f, cy - Math.cos(bearing) * R * f];
+    draw1(g, at, dpr);
+  }
+
+  function drawInspector() {
+    const r = viewer.robot;
+    if (!r) return;
+    $('i-title').textContent = 'Robot ' + r.robot;
+    $('i-controller').textContent = r.controller;
+    $('i-state').textContent = r.state;
+    $('i-led').textContent = r.led;
+    $('i-attached').textContent = r.attached ? 'yes' : 'no';
+    $('i-wheels').textContent = `${r.wheels[0].toFixed(3)}, ${r.wheels[1].toFixed(3)}`;
+    $('inspect').dataset.robot = String(r.robot);
+    $('inspect').dataset.proximity = JSON.stringify(r.readings.proximity);
+    $('inspect').dataset.light = JSON.stringify(r.readings.light);
+    // Proximity: one bar per sensor, in [0, 1].
+    {
+      const [g, w, h, dpr] = sizeCanvas($('i-prox'));
+      const p = r.readings.proximity;
+      const n = Math.max(1, p.length);
+      const bw = w / n;
+      g.fillStyle = '#f3f3f3';
+      g.fillRect(0, 0, w, h);
+      p.forEach((v, k) => {
+        const bh = Math.max(0, Math.min(1, v)) * (h - 12 * dpr);
+        g.fillStyle = v > 0 ? '#e0501e' : '#ccc';
+        g.fillRect(k * bw + 1, h - 12 * dpr - bh, bw - 2, Math.max(bh, dpr));
+        // Bearings (degrees), as many as fit.
+        const every = Math.ceil(22 * dpr / bw);
+        if (k % every === 0) {
+          g.fillStyle = '#555';
+          g.font = `${9 * dpr}px sans-serif`;
+          const deg = Math.round((r.proximity_angles[k] || 0) * 180 / Math.PI);
+          g.fillText(String(deg), k * bw + 1, h - 2 * dpr);
+        }
+      });
+    }
+    // Light: polar, one spoke per sensor.
+    polar($('i-light'), (g, at, dpr) => {
+      const l = r.readings.light;
+      if (!l.length) return;
+      g.beginPath();
+      l.forEach((v, k) => {
+        const [x, y] = at(r.light_angles[k] || 0, Math.max(0, Math.min(1, v)));
+        if (k === 0) g.moveTo(x, y); else g.lineTo(x, y);
+      });
+      g.closePath();
+      g.fillStyle = 'rgba(250,200,0,0.5)';
+      g.fill();
+      g.strokeStyle = '#b08a00';
+      g.lineWidth = 1.5 * dpr;
+      g.stroke();
+    });
+    // Camera: blobs at their bearing, distance scaled to the farthest (at least 1 m).
+    const blobs = r.readings.blobs;
+    $('i-blobs').textContent = String(blobs.length);
+    polar($('i-camera'), (g, at, dpr) => {
+      const far = Math.max(1, ...blobs.map((b) => b.distance));
+      for (const b of blobs) {
+        const [x, y] = at(b.bearing, Math.min(1, b.distance / far));
+        g.beginPath();
+        g.arc(x, y, 3.5 * dpr, 0, 2 * Math.PI);
+        g.fillStyle = rgb(b.rgb);
+        g.fill();
+        g.strokeStyle = '#222';
+        g.lineWidth = dpr;
+        g.stroke();
+      }
+    });
+    // State history: coloured bands over the last minute.
+    {
+      const [g, w, h] = sizeCanvas($('i-history'));
+      const t1 = r.time_s, t0 = t1 - r.history_s;
+      const X = (t) => (Math.max(t0, t) - t0) / (t1 - t0) * w;
+      const hist = r.history;
+      const names = [];
+      hist.forEach((e, k) => {
+        const end = k + 1 < hist.length ? hist[k + 1].t_s : t1;
+        g.fillStyle = stateColor(e.state);
+        g.fillRect(X(e.t_s), 0, Math.max(1, X(end) - X(e.t_s)), h);
+        if (!names.includes(e.state)) names.push(e.state);
+      });
+      legend($('i-history-legend'), names);
+      $('i-history-s').textContent = String(r.history_s);
+    }
+  }
+
+  let inspecting = false;
+  async function inspect() {
+    if (viewer.selected < 0 || inspecting) return;
+    inspecting = true;
+    try {
+      const want = viewer.selected;
+      const r = await api('GET', '/api/robot?i=' + want);
+      if (viewer.selected === want) { viewer.robot = r; drawInspector(); }
+    } finally {
+      inspecting = false;
+    }
+  }
+
+  canvas.addEventListener('click', (e) => {
+    const st = viewer.state, s = viewer.scene;
+    if (!st || !s || !viewer.frame) return;
+    const rect = canvas.getBoundingClientRect();
+    const px = (e.clientX - rect.left) * (canvas.width / rect.width);
+    const py = (e.clientY - rect.top) * (canvas.height / rect.height);
+    const [wx, wy] = viewer.toWorld(px, py);
+    let best = -1, bestD = Infinity;
+    st.robots.forEach((r, i) => {
+      if (!r.released) return;
+      const d = Math.hypot(r.x - wx, r.y - wy);
+      const g = s.groups[r.group];
+      const reach = Math.max(g.radius * 1.5, 8 * viewer.frame.dpr / viewer.frame.scale);
+      if (d <= reach && d < bestD) { best = i; bestD = d; }
+    });
+    select(best);
+  });
+  $('i-close').addEventListener('click', () => select(-1));
 
   async function loadScene() {
     viewer.scene = await api('GET', '/api/scene');
@@ -303,10 +568,13 @@
   }
 
   async function show(st) {
-    if (!viewer.scene || viewer.scene.generation !== st.generation) await loadScene();
+    const fresh = !viewer.scene || viewer.scene.generation !== st.generation;
+    if (fresh) await loadScene();
     viewer.state = st;
     panel();
     draw();
+    await refreshSeries(fresh);
+    await inspect();
   }
 
   // ---- polling ----

@@ -2,15 +2,18 @@
 //!
 //! A live web viewer for Formica runs. [`Server`] holds one simulation, shared by every
 //! client: a single simulation thread owns it, steps it while it plays, and answers requests
-//! that workers pass it through a bounded queue (a [`formica::experiment::Run`] is not `Send`,
-//! so it stays on the thread that built it; the queue serialises access as a mutex would).
-//! A fixed pool of worker threads speaks HTTP/1.1; nothing is kept per client. Routes:
+//! that connection threads pass it through a bounded queue (a [`formica::experiment::Run`] is
+//! not `Send`, so it stays on the thread that built it; the queue serialises access as a mutex
+//! would). Each connection gets a thread of its own, up to [`ServeOptions::max_connections`];
+//! idle clients cannot lock others out (see [`conn`]). Nothing is kept per client. Routes:
 //!
 //! | route | what |
 //! |---|---|
 //! | `GET /` (`/index.html`), `/viewer.js`, `/viewer.css` | the page, embedded in the binary |
 //! | `GET /api/scene` | arena, walls, lights, object outlines, robot groups (JSON) |
-//! | `GET /api/state[?rays=1][&zones=1]` | time, outcome, object, path, robots (JSON) |
+//! | `GET /api/state[?rays=1][&zones=1]` | time, outcome, object, path, robots (JSON); for a replay, whether it ended as stored |
+//! | `GET /api/series` | goal distance, object speed and robots per state over time (JSON) |
+//! | `GET /api/robot?i=N` | robot N's readings, controller state, wheels and state history (JSON) |
 //! | `POST /api/play`, `/api/pause`, `/api/step[?n=N]`, `/api/speed?x=F`, `/api/restart[?seed=N]` | control; answer with the state |
 //! | `GET /api/stats` | request counters and buffer sizes of the server itself |
 //!
@@ -19,16 +22,18 @@
 //! loopback it only answers requests whose `Host` names loopback (DNS rebinding), and
 //! control requests only from its own origin.
 
+pub mod conn;
 pub mod http;
 pub mod sim;
 
-pub use sim::{Sim, StateQuery, MAX_STEP, PATH_CAP, SPEED_RANGE};
+pub use sim::{ReplayInfo, Sim, StateQuery, MAX_STEP, PATH_CAP, SPEED_RANGE};
 
+use conn::{Deadline, Slot, Slots};
 use http::{Method, ReadError, Request, Response};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
-use std::sync::{Arc, Mutex};
+use std::sync::mpsc::{self, Receiver, SyncSender};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 const INDEX_HTML: &str = include_str!("../assets/index.html");
@@ -49,14 +54,16 @@ pub struct ServeOptions {
     pub seed: Option<u64>,
     /// Simulated time limit (default: the scenario's).
     pub duration_s: Option<f32>,
-    /// Worker threads answering requests.
-    pub workers: usize,
-    /// Accepted connections waiting for a worker; beyond that new ones get 503.
-    pub queue: usize,
-    /// How long a worker waits for a request's bytes.
+    /// Most connections open at once (one thread each). When all are taken, a new client
+    /// evicts the one that has been sending its request longest; it gets 503 only if every
+    /// connection is being answered.
+    pub max_connections: usize,
+    /// How long a client has to send its whole request (head and body), in all.
     pub read_timeout: Duration,
     /// Start playing at once.
     pub play: bool,
+    /// The stored trial this run replays, if any.
+    pub replay: Option<ReplayInfo>,
 }
 
 impl Default for ServeOptions {
@@ -66,10 +73,10 @@ impl Default for ServeOptions {
             port: DEFAULT_PORT,
             seed: None,
             duration_s: None,
-            workers: 4,
-            queue: 32,
+            max_connections: 64,
             read_timeout: Duration::from_secs(5),
             play: false,
+            replay: None,
         }
     }
 }
@@ -99,11 +106,13 @@ impl std::error::Error for ServeError {}
 pub struct Stats {
     /// Requests answered (including errors).
     pub requests: u64,
-    /// Connections turned away with 503 because the queue was full.
+    /// Connections turned away with 503 because every connection was being answered.
     pub rejected: u64,
-    /// Connections accepted and not yet closed (queued or being answered).
+    /// Connections closed unanswered to make room, while still sending their request.
+    pub evicted: u64,
+    /// Connections accepted and not yet closed.
     pub open_connections: usize,
-    /// Most connections that can be open at once (workers + queue).
+    /// Most connections that can be open at once.
     pub max_connections: usize,
     /// Points of the object's path held.
     pub path_points: usize,
@@ -117,7 +126,6 @@ struct Counters {
     stop: AtomicBool,
     requests: AtomicU64,
     rejected: AtomicU64,
-    open: AtomicUsize,
     path_points: AtomicUsize,
 }
 
@@ -131,22 +139,24 @@ enum Control {
     Restart(Option<u64>),
 }
 
-/// What workers ask the simulation thread.
+/// What connection threads ask the simulation thread.
 enum Cmd {
     Scene(SyncSender<String>),
     State(StateQuery, SyncSender<String>),
+    Series(SyncSender<String>),
+    Robot(usize, SyncSender<Option<String>>),
     Control(Control, StateQuery, SyncSender<Result<String, Response>>),
 }
 
-/// Most requests waiting for the simulation thread.
-const SIM_QUEUE: usize = 64;
-/// How long a worker waits for the simulation thread's answer.
+/// How long a connection waits for the simulation thread's answer.
 const SIM_WAIT: Duration = Duration::from_secs(30);
+/// Stack of a connection thread (it parses and writes; the simulation thread builds answers).
+const CONN_STACK: usize = 256 * 1024;
 
 struct Shared {
     counters: Arc<Counters>,
     cmd: SyncSender<Cmd>,
-    max_connections: usize,
+    slots: Arc<Slots>,
     loopback: bool,
     addr: SocketAddr,
 }
@@ -196,8 +206,9 @@ fn stats(s: &Shared) -> Stats {
     Stats {
         requests: c.requests.load(Ordering::SeqCst),
         rejected: c.rejected.load(Ordering::SeqCst),
-        open_connections: c.open.load(Ordering::SeqCst),
-        max_connections: s.max_connections,
+        evicted: s.slots.evictions(),
+        open_connections: s.slots.open(),
+        max_connections: s.slots.max(),
         path_points: c.path_points.load(Ordering::SeqCst),
         simulations: 1,
     }
@@ -210,15 +221,21 @@ impl Server {
             TcpListener::bind(SocketAddr::new(opts.host, opts.port)).map_err(ServeError::Io)?;
         let addr = listener.local_addr().map_err(ServeError::Io)?;
         let counters = Arc::new(Counters::default());
-        let (cmd_tx, cmd_rx) = mpsc::sync_channel::<Cmd>(SIM_QUEUE);
+        let slots = Slots::new(opts.max_connections);
+        // Each connection has at most one command outstanding, so the queue never fills.
+        let (cmd_tx, cmd_rx) = mpsc::sync_channel::<Cmd>(slots.max() + 4);
         let (init_tx, init_rx) = mpsc::sync_channel(1);
         let sim_thread = {
             let counters = counters.clone();
             let (seed, duration, play) = (opts.seed, opts.duration_s, opts.play);
+            let replay = opts.replay.clone();
             std::thread::Builder::new()
                 .name("serve-sim".into())
                 .spawn(move || match Sim::new(scenario, seed, duration) {
                     Ok(mut sim) => {
+                        if let Some(r) = replay {
+                            sim.set_replay(r);
+                        }
                         sim.set_playing(play);
                         let _ = init_tx.send(Ok(()));
                         sim_loop(sim, &cmd_rx, &counters);
@@ -242,12 +259,10 @@ impl Server {
                 )));
             }
         }
-        let workers = opts.workers.max(1);
-        let queue = opts.queue.max(1);
         let shared = Arc::new(Shared {
             counters,
             cmd: cmd_tx,
-            max_connections: workers + queue,
+            slots,
             loopback: addr.ip().is_loopback(),
             addr,
         });
@@ -271,8 +286,8 @@ impl Server {
         }
     }
 
-    /// Serves until [`ServerHandle::stop`]: a fixed pool of workers answers requests and this
-    /// thread accepts connections, turning them away with 503 when the queue is full.
+    /// Serves until [`ServerHandle::stop`]: this thread accepts connections and gives each a
+    /// thread of its own (see [`conn`] for how idle clients are kept from locking others out).
     pub fn run(self) -> std::io::Result<()> {
         let Server {
             listener,
@@ -280,62 +295,90 @@ impl Server {
             opts,
             sim_thread,
         } = self;
-        let (tx, rx): (SyncSender<TcpStream>, Receiver<TcpStream>) =
-            mpsc::sync_channel(opts.queue.max(1));
-        let rx = Arc::new(Mutex::new(rx));
-        let mut threads = Vec::new();
-        for k in 0..opts.workers.max(1) {
-            let rx = rx.clone();
-            let mine = shared.clone();
-            let timeout = opts.read_timeout;
-            let t = std::thread::Builder::new()
-                .name(format!("serve-worker-{k}"))
-                .spawn(move || worker(&mine, &rx, timeout));
-            match t {
-                Ok(t) => threads.push(t),
-                Err(e) => {
-                    shared.counters.stop.store(true, Ordering::SeqCst);
-                    return Err(e);
-                }
-            }
-        }
         let counters = &shared.counters;
         for conn in listener.incoming() {
             if counters.stop.load(Ordering::SeqCst) {
                 break;
             }
-            let Ok(stream) = conn else { continue };
-            counters.open.fetch_add(1, Ordering::SeqCst);
-            match tx.try_send(stream) {
-                Ok(()) => {}
-                Err(TrySendError::Full(mut s)) | Err(TrySendError::Disconnected(mut s)) => {
-                    counters.rejected.fetch_add(1, Ordering::SeqCst);
-                    // Take in what the client has sent already (briefly), so that closing
-                    // does not reset the connection before it reads the answer.
-                    let _ = s.set_read_timeout(Some(Duration::from_millis(20)));
-                    let _ = s.set_write_timeout(Some(Duration::from_millis(200)));
-                    let mut sink = [0u8; 4096];
-                    let _ = std::io::Read::read(&mut s, &mut sink);
-                    let _ = http::write_response(
-                        &mut s,
-                        &Response::error(503, "server busy, try again")
-                            .with_header("Retry-After", "1"),
-                        false,
-                    );
-                    let _ = s.shutdown(std::net::Shutdown::Write);
-                    counters.open.fetch_sub(1, Ordering::SeqCst);
+            let stream = match conn {
+                Ok(s) => s,
+                Err(_) => {
+                    // Out of file descriptors, or the like: let connections close.
+                    std::thread::sleep(Duration::from_millis(10));
+                    continue;
                 }
+            };
+            let Ok(slot) = shared.slots.admit(&stream) else {
+                busy(counters, stream);
+                continue;
+            };
+            let mine = shared.clone();
+            let timeout = opts.read_timeout;
+            let spawned = std::thread::Builder::new()
+                .name("serve-conn".into())
+                .stack_size(CONN_STACK)
+                .spawn(move || handle(&mine, stream, slot, timeout));
+            if spawned.is_err() {
+                // The slot was freed with the closure; the client hears nothing and retries.
+                counters.rejected.fetch_add(1, Ordering::SeqCst);
             }
         }
         counters.stop.store(true, Ordering::SeqCst);
-        drop(tx);
-        for t in threads {
-            let _ = t.join();
+        // Idle connections are closed; those being answered finish (bounded by the timeouts).
+        shared.slots.close_reading();
+        let t0 = Instant::now();
+        while shared.slots.open() > 0 && t0.elapsed() < opts.read_timeout + SIM_WAIT {
+            shared.slots.close_reading();
+            std::thread::sleep(Duration::from_millis(10));
         }
         drop(shared);
         let _ = sim_thread.join();
         Ok(())
     }
+}
+
+/// Turns a client away with 503 when every connection is being answered.
+fn busy(counters: &Counters, mut s: TcpStream) {
+    counters.rejected.fetch_add(1, Ordering::SeqCst);
+    // Take in what the client has sent already (briefly), so that closing does not reset the
+    // connection before it reads the answer.
+    let _ = s.set_read_timeout(Some(Duration::from_millis(20)));
+    let _ = s.set_write_timeout(Some(Duration::from_millis(200)));
+    let mut sink = [0u8; 4096];
+    let _ = std::io::Read::read(&mut s, &mut sink);
+    let _ = http::write_response(
+        &mut s,
+        &Response::error(503, "server busy, try again").with_header("Retry-After", "1"),
+        false,
+    );
+    let _ = s.shutdown(std::net::Shutdown::Write);
+}
+
+/// One connection: reads its request by the deadline, answers it, closes.
+fn handle(shared: &Shared, mut stream: TcpStream, slot: Slot, timeout: Duration) {
+    let counters = &shared.counters;
+    let _ = stream.set_nodelay(true);
+    let _ = stream.set_write_timeout(Some(timeout));
+    let read = http::read_request(&mut Deadline::new(&stream, Instant::now() + timeout));
+    if slot.evicted() {
+        return;
+    }
+    slot.answering();
+    match read {
+        Ok(req) => {
+            let resp = respond(shared, &req);
+            let _ = http::write_response(&mut stream, &resp, req.method == Method::Head);
+            counters.requests.fetch_add(1, Ordering::SeqCst);
+        }
+        Err(ReadError::Bad(resp)) => {
+            let _ = http::write_response(&mut stream, &resp, false);
+            counters.requests.fetch_add(1, Ordering::SeqCst);
+        }
+        Err(ReadError::Gone) => {}
+    }
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+    drop(stream);
+    drop(slot);
 }
 
 /// The simulation thread: answers commands, and between them steps the world while it plays.
@@ -351,6 +394,12 @@ fn sim_loop(mut sim: Sim, rx: &Receiver<Cmd>, counters: &Counters) {
             }
             Ok(Cmd::State(q, reply)) => {
                 let _ = reply.try_send(sim.state_json(q));
+            }
+            Ok(Cmd::Series(reply)) => {
+                let _ = reply.try_send(sim.series_json());
+            }
+            Ok(Cmd::Robot(i, reply)) => {
+                let _ = reply.try_send(sim.robot_json(i));
             }
             Ok(Cmd::Control(c, q, reply)) => {
                 let r = control(&mut sim, c).map(|()| sim.state_json(q));
@@ -395,32 +444,6 @@ fn ask<T>(shared: &Shared, make: impl FnOnce(SyncSender<T>) -> Cmd) -> Result<T,
     };
     shared.cmd.try_send(make(tx)).map_err(|_| busy())?;
     rx.recv_timeout(SIM_WAIT).map_err(|_| busy())
-}
-
-fn worker(shared: &Shared, rx: &Mutex<Receiver<TcpStream>>, timeout: Duration) {
-    let counters = &shared.counters;
-    loop {
-        let next = rx.lock().unwrap_or_else(|e| e.into_inner()).recv();
-        let Ok(mut stream) = next else { return };
-        let _ = stream.set_read_timeout(Some(timeout));
-        let _ = stream.set_write_timeout(Some(timeout));
-        let _ = stream.set_nodelay(true);
-        match http::read_request(&mut stream) {
-            Ok(req) => {
-                let resp = respond(shared, &req);
-                let _ = http::write_response(&mut stream, &resp, req.method == Method::Head);
-                counters.requests.fetch_add(1, Ordering::SeqCst);
-            }
-            Err(ReadError::Bad(resp)) => {
-                let _ = http::write_response(&mut stream, &resp, false);
-                counters.requests.fetch_add(1, Ordering::SeqCst);
-            }
-            Err(ReadError::Gone) => {}
-        }
-        let _ = stream.shutdown(std::net::Shutdown::Write);
-        drop(stream);
-        counters.open.fetch_sub(1, Ordering::SeqCst);
-    }
 }
 
 /// Whether a `Host` or `Origin` authority names this machine's loopback.
@@ -496,7 +519,7 @@ fn respond(shared: &Shared, req: &Request) -> Response {
         "/" | "/index.html" => static_asset(INDEX_HTML, "text/html; charset=utf-8"),
         "/viewer.js" => static_asset(VIEWER_JS, "text/javascript; charset=utf-8"),
         "/viewer.css" => static_asset(VIEWER_CSS, "text/css; charset=utf-8"),
-        "/api/scene" | "/api/state" | "/api/stats" => {
+        "/api/scene" | "/api/state" | "/api/stats" | "/api/series" | "/api/robot" => {
             if !get {
                 return Response::error(405, "use GET").with_header("Allow", "GET, HEAD");
             }
@@ -531,12 +554,27 @@ fn api_get(shared: &Shared, req: &Request) -> Result<Response, Response> {
             only(req, &[])?;
             Ok(Response::ok(JSON, ask(shared, Cmd::Scene)?))
         }
+        "/api/series" => {
+            only(req, &[])?;
+            Ok(Response::ok(JSON, ask(shared, Cmd::Series)?))
+        }
+        "/api/robot" => {
+            only(req, &["i"])?;
+            let v = param(req, "i").ok_or_else(|| Response::error(400, "i: missing"))?;
+            let i: usize = v.parse().map_err(|_| {
+                Response::error(400, &format!("i: expected a robot number, got `{v}`"))
+            })?;
+            ask(shared, |tx| Cmd::Robot(i, tx))?
+                .map(|body| Response::ok(JSON, body))
+                .ok_or_else(|| Response::error(404, &format!("no robot {i}")))
+        }
         "/api/stats" => {
             only(req, &[])?;
             let s = stats(shared);
             let body = serde_json::json!({
                 "requests": s.requests,
                 "rejected": s.rejected,
+                "evicted": s.evicted,
                 "open_connections": s.open_connections,
                 "max_connections": s.max_connections,
                 "path_points": s.path_points,

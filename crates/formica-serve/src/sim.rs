@@ -7,9 +7,10 @@ use formica::ops;
 use formica::physics::{Nearby, Tag};
 use formica::scenario::Color;
 use formica::sensors::light_blocked;
-use formica::{Overrides, Scenario, ScenarioError, World};
+use formica::timeseries::TimeSeries;
+use formica::{Overrides, RunResult, Scenario, ScenarioError, World};
 use serde::Serialize;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 
 /// Most points of the object's path kept (older points are thinned out, never appended
 /// without bound).
@@ -20,6 +21,61 @@ pub const MAX_STEP: u64 = 10_000;
 pub const SPEED_RANGE: (f64, f64) = (0.05, 200.0);
 /// Sensor rays are computed for at most this many robots.
 pub const MAX_RAY_ROBOTS: usize = 1000;
+/// State histories are kept for at most this many robots (the first ones).
+pub const MAX_HISTORY_ROBOTS: usize = 1000;
+/// How far back a robot's state history reaches (simulated seconds).
+pub const HISTORY_S: f64 = 60.0;
+/// Most state changes kept per robot within [`HISTORY_S`].
+pub const HISTORY_CAP: usize = 256;
+/// Most points of the time series kept (thinned as it grows).
+pub const SERIES_CAP: usize = 1024;
+/// The time series samples this often at first (simulated seconds).
+pub const SERIES_EVERY_S: f64 = 0.5;
+
+/// A stored trial the simulation replays: what the page says about it, and the result the run
+/// must end with.
+#[derive(Debug, Clone)]
+pub struct ReplayInfo {
+    /// `trial 17 of smoke.db`.
+    pub label: String,
+    /// Its seed: only a run with this seed is the trial.
+    pub seed: u64,
+    /// The stored result.
+    pub stored: RunResult,
+    /// Its parameters, as `(key, value)` to show.
+    pub params: Vec<(String, String)>,
+}
+
+/// Where robots' controller states changed, within the last [`HISTORY_S`].
+#[derive(Debug, Clone, Default)]
+struct History {
+    /// Per robot: (time, state) of each change, oldest first; the first entry is the state at
+    /// the start of the window.
+    changes: Vec<VecDeque<(f64, &'static str)>>,
+}
+
+impl History {
+    fn new(w: &World) -> Self {
+        let mut h = History {
+            changes: vec![VecDeque::new(); w.robots.len().min(MAX_HISTORY_ROBOTS)],
+        };
+        h.observe(w);
+        h
+    }
+
+    fn observe(&mut self, w: &World) {
+        let t = w.time_s;
+        for (q, r) in self.changes.iter_mut().zip(&w.robots) {
+            if q.back().is_none_or(|&(_, s)| s != r.state) {
+                q.push_back((t, r.state));
+            }
+            // Keep one change before the window, which says the state at its start.
+            while q.len() > HISTORY_CAP || (q.len() >= 2 && q[1].0 <= t - HISTORY_S) {
+                q.pop_front();
+            }
+        }
+    }
+}
 
 /// The object's path, thinned to at most [`PATH_CAP`] points: every `stride`-th tick is kept,
 /// and the stride doubles each time the buffer fills.
@@ -70,6 +126,9 @@ pub struct Sim {
     path: BoundedPath,
     scene: String,
     near: Vec<Nearby>,
+    series: TimeSeries,
+    history: History,
+    replay: Option<ReplayInfo>,
 }
 
 fn pt(v: Vec2) -> [f32; 2] {
@@ -107,6 +166,29 @@ struct GroupOut<'a> {
     radius: f32,
     proximity_angles: &'a [f32],
     proximity_range: f32,
+    light_angles: &'a [f32],
+}
+
+#[derive(Serialize)]
+struct ReplayScene<'a> {
+    label: &'a str,
+    seed: u64,
+    stored_outcome: &'static str,
+    stored_time_s: f64,
+    stored_ticks: u64,
+    params: &'a [(String, String)],
+}
+
+#[derive(Serialize)]
+struct ReplayState {
+    /// Whether this run is the stored trial (its seed).
+    active: bool,
+    /// Whether it has ended.
+    ended: bool,
+    /// Once ended: whether it ended exactly as stored.
+    matches: Option<bool>,
+    /// Once ended: what differs (`field: stored, replayed`).
+    differences: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -124,6 +206,8 @@ struct SceneOut<'a> {
     objects: Vec<ObjectScene<'a>>,
     groups: Vec<GroupOut<'a>>,
     robots: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    replay: Option<ReplayScene<'a>>,
 }
 
 #[derive(Serialize)]
@@ -174,6 +258,8 @@ struct StateOut<'a> {
     robots: Vec<RobotOut>,
     #[serde(skip_serializing_if = "Option::is_none")]
     zones: Option<Vec<Vec<[f32; 2]>>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    replay: Option<ReplayState>,
 }
 
 /// What a state request asks to include besides the basics.
@@ -194,6 +280,8 @@ impl Sim {
     ) -> Result<Sim, ScenarioError> {
         let seed = seed.unwrap_or(scenario.spec.run.seed);
         let run = Self::build(&scenario, seed, duration_s)?;
+        let series = TimeSeries::new(&run.world, SERIES_EVERY_S, SERIES_CAP);
+        let history = History::new(&run.world);
         let mut sim = Sim {
             scenario,
             duration_s,
@@ -206,9 +294,19 @@ impl Sim {
             path: BoundedPath::new(),
             scene: String::new(),
             near: Vec::new(),
+            series,
+            history,
+            replay: None,
         };
         sim.reset_derived();
         Ok(sim)
+    }
+
+    /// Marks the run with `info.seed` as the replay of a stored trial: the scene says which,
+    /// and the state, once it ends, whether it ended as stored.
+    pub fn set_replay(&mut self, info: ReplayInfo) {
+        self.replay = Some(info);
+        self.scene = self.scene_json_now();
     }
 
     fn build(sc: &Scenario, seed: u64, duration_s: Option<f32>) -> Result<Run, ScenarioError> {
@@ -230,6 +328,8 @@ impl Sim {
             self.path.push(self.run.world.object_center(t));
         }
         self.owed_ticks = 0.0;
+        self.series = TimeSeries::new(&self.run.world, SERIES_EVERY_S, SERIES_CAP);
+        self.history = History::new(&self.run.world);
         self.scene = self.scene_json_now();
     }
 
@@ -247,10 +347,16 @@ impl Sim {
     pub fn step(&mut self, n: u64) -> u64 {
         let mut done = 0;
         while done < n && self.run.outcome().is_none() {
-            self.run.step();
-            if let Some(t) = self.run.world.target {
-                self.path.push(self.run.world.object_center(t));
+            let ended = self.run.step().is_some();
+            let w = &self.run.world;
+            if let Some(t) = w.target {
+                self.path.push(w.object_center(t));
             }
+            self.series.observe(w);
+            if ended {
+                self.series.sample(w);
+            }
+            self.history.observe(w);
             done += 1;
         }
         done
@@ -398,9 +504,18 @@ impl Sim {
                     radius: g.model.radius,
                     proximity_angles: &g.model.proximity_angles,
                     proximity_range: g.model.proximity_range,
+                    light_angles: &g.model.light_angles,
                 })
                 .collect(),
             robots: w.robots.len(),
+            replay: self.replay.as_ref().map(|r| ReplayScene {
+                label: &r.label,
+                seed: r.seed,
+                stored_outcome: r.stored.outcome.name(),
+                stored_time_s: r.stored.sim_time_s,
+                stored_ticks: r.stored.ticks,
+                params: &r.params,
+            }),
         };
         serde_json::to_string(&out).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
     }
@@ -476,8 +591,98 @@ impl Sim {
             path,
             robots,
             zones,
+            replay: self.replay.as_ref().map(|r| {
+                let active = r.seed == self.seed;
+                let ended = self.run.outcome().is_some();
+                let differences = if active && ended {
+                    formica::experiment::result_differences(&r.stored, &result)
+                } else {
+                    Vec::new()
+                };
+                ReplayState {
+                    active,
+                    ended,
+                    matches: (active && ended).then_some(differences.is_empty()),
+                    differences,
+                }
+            }),
         };
         serde_json::to_string(&out).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    }
+
+    /// The time series so far (goal distance, object speed, robots per state) as JSON, ending
+    /// with the state now.
+    pub fn series_json(&self) -> String {
+        let mut series = self.series.clone();
+        series.sample(&self.run.world);
+        let mut v = series.to_json();
+        if let Some(m) = v.as_object_mut() {
+            m.insert("generation".into(), self.generation.into());
+        }
+        v.to_string()
+    }
+
+    /// What robot `i` senses and does now, and its state history, as JSON; `None` if there is
+    /// no such robot.
+    pub fn robot_json(&mut self, i: usize) -> Option<String> {
+        let w = &self.run.world;
+        let r = w.robots.get(i)?;
+        let g = &w.groups[r.group];
+        let rd = &r.readings;
+        let pose = w.robot_pose(i);
+        let history: Vec<serde_json::Value> = self
+            .history
+            .changes
+            .get(i)
+            .map(|q| {
+                q.iter()
+                    .map(|(t, s)| serde_json::json!({ "t_s": t, "state": s }))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let blobs: Vec<serde_json::Value> = rd
+            .blobs
+            .iter()
+            .map(|b| {
+                serde_json::json!({
+                    "bearing": b.bearing,
+                    "distance": b.distance,
+                    "color": b.color.name(),
+                    "rgb": b.color.rgb(),
+                })
+            })
+            .collect();
+        let released = r.body.is_some();
+        let rays = (released && i < MAX_RAY_ROBOTS).then(|| proximity_rays(w, i, &mut self.near));
+        let v = serde_json::json!({
+            "generation": self.generation,
+            "robot": i,
+            "tick": w.tick,
+            "time_s": w.time_s,
+            "group": r.group,
+            "controller": g.controller,
+            "model": g.model.kind,
+            "state": r.state,
+            "led": r.led.name(),
+            "released": released,
+            "attached": r.attached.is_some(),
+            "pose": [pose.x, pose.y, pose.theta],
+            "wheels": [r.action.left, r.action.right],
+            "max_speed": g.model.max_speed,
+            "proximity_angles": g.model.proximity_angles,
+            "light_angles": g.model.light_angles,
+            "readings": {
+                "proximity": rd.proximity,
+                "light": rd.light,
+                "beacon": rd.beacon.map(pt),
+                "blobs": blobs,
+                "attached": rd.attached,
+            },
+            "rays": rays,
+            "history_s": HISTORY_S,
+            "history": history,
+        });
+        Some(v.to_string())
     }
 }
 

@@ -397,6 +397,7 @@ fn memory_stays_bounded_with_many_clients() {
     assert_eq!(req(a, "GET", "/api/state").1, state_before);
     let stats = json(&req(a, "GET", "/api/stats").1);
     assert_eq!(stats["simulations"], 1);
+    // Connections are bounded (one thread each), whatever the number of clients.
     assert!(stats["max_connections"].as_u64().is_some_and(|m| m <= 64));
     if let (Some(r0), Some(r1)) = (rss0, rss1) {
         // 960 more requests; a per-request leak of even 10 KiB would show.
@@ -404,34 +405,240 @@ fn memory_stays_bounded_with_many_clients() {
     }
 }
 
+/// A world heavy enough that stepping it 4,000 ticks takes a second or more: 300 robots wandering.
+fn heavy() -> Scenario {
+    Scenario::parse(
+        r#"
+name = "heavy"
+[arena]
+size = [12.0, 12.0]
+[[robots]]
+count = 300
+controller = "random-walk"
+placement = { random = { min = [-5.5, -5.5], max = [5.5, 5.5] } }
+[run]
+duration_s = 100000
+"#,
+        "heavy.toml",
+    )
+    .expect("test scenario parses")
+}
+
 #[test]
-fn a_full_queue_answers_busy_and_recovers() {
-    let r = start_with(small(), |o| {
-        o.workers = 1;
-        o.queue = 1;
-        o.read_timeout = Duration::from_millis(800);
+fn a_full_server_evicts_idle_clients_and_answers_busy_only_when_all_are_answering() {
+    let r = start_with(heavy(), |o| {
+        o.max_connections = 2;
+        o.read_timeout = Duration::from_secs(10);
     });
     let a = r.addr();
-    // Silent clients occupy the one worker and then the one queue slot.
-    let mut idle = Vec::new();
-    for _ in 0..2 {
-        idle.push(TcpStream::connect(a).expect("connects"));
-        std::thread::sleep(Duration::from_millis(150));
-    }
-    let codes: Vec<u16> = (0..2).map(|_| req(a, "GET", "/api/state").0).collect();
-    assert!(
-        codes.contains(&503),
-        "a full queue turns clients away: {codes:?}"
-    );
-    drop(idle);
+    // Silent clients fill both connections; each newcomer evicts the oldest silent one and is
+    // answered at once, long before the silent ones' 10 s would run out.
+    let mut idle: Vec<TcpStream> = (0..2)
+        .map(|_| {
+            let s = TcpStream::connect(a).expect("connects");
+            std::thread::sleep(Duration::from_millis(50));
+            s
+        })
+        .collect();
     let t0 = Instant::now();
-    let mut ok = false;
-    while !ok && t0.elapsed() < Duration::from_secs(10) {
-        ok = req(a, "GET", "/api/state").0 == 200;
-        if !ok {
-            std::thread::sleep(Duration::from_millis(100));
-        }
+    assert_eq!(req(a, "GET", "/api/state").0, 200);
+    assert!(t0.elapsed() < Duration::from_secs(2), "{:?}", t0.elapsed());
+    assert!(r.handle.stats().evicted >= 1);
+    // The oldest silent client was closed without an answer.
+    idle[0]
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    let mut buf = [0u8; 64];
+    assert!(matches!(idle[0].read(&mut buf), Ok(0) | Err(_)));
+
+    // While both connections are being answered (a long step, and a request queued behind it
+    // for the simulation), a newcomer is turned away with 503; once they are done, it is
+    // served again.
+    drop(idle.drain(..));
+    let patient = |target: &'static str| {
+        std::thread::spawn(move || {
+            let mut s = TcpStream::connect(a).expect("connects");
+            s.set_read_timeout(Some(Duration::from_secs(120)))
+                .expect("timeout");
+            let port = a.port();
+            s.write_all(
+                format!(
+                    "POST {target} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Length: 0\r\n\r\n"
+                )
+                .as_bytes(),
+            )
+            .expect("sends");
+            let mut out = String::new();
+            let _ = s.read_to_string(&mut out);
+            out.split(' ')
+                .nth(1)
+                .and_then(|c| c.parse::<u16>().ok())
+                .unwrap_or(0)
+        })
+    };
+    let t1 = Instant::now();
+    let long = patient("/api/step?n=4000");
+    std::thread::sleep(Duration::from_millis(100));
+    let queued = patient("/api/pause");
+    std::thread::sleep(Duration::from_millis(100));
+    let mut saw_busy = false;
+    while !saw_busy && !long.is_finished() {
+        saw_busy = req(a, "GET", "/api/state").0 == 503;
     }
-    assert!(ok, "serves again once the idle clients are gone");
+    let codes = [long.join().expect("client"), queued.join().expect("client")];
+    eprintln!("the long step was answered after {:?}", t1.elapsed());
+    assert_eq!(codes, [200, 200]);
+    assert!(saw_busy, "no 503 while both connections were answering");
     assert!(r.handle.stats().rejected >= 1);
+    assert_eq!(req(a, "GET", "/api/state").0, 200, "serves again");
+}
+
+#[test]
+fn a_hundred_idle_connections_do_not_lock_a_client_out() {
+    // The defaults `formica serve` uses: 64 connections, 5 s to send a request.
+    let r = start_with(seed_transport(), |o| {
+        o.read_timeout = ServeOptions::default().read_timeout;
+    });
+    let a = r.addr();
+    // 100 clients connect and send nothing (a few send half a request), and stay connected.
+    let idle: Vec<TcpStream> = (0..100)
+        .map(|k| {
+            let mut s = TcpStream::connect(a).expect("connects");
+            if k % 10 == 0 {
+                let _ = s.write_all(b"GET /api/sta");
+            }
+            s
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(100));
+    let st = r.handle.stats();
+    assert!(st.open_connections <= st.max_connections, "{st:?}");
+    // A client loads the page and its assets and steps the simulation, in well under 1 s.
+    let t0 = Instant::now();
+    for path in ["/", "/viewer.js", "/viewer.css", "/api/scene", "/api/state"] {
+        assert_eq!(req(a, "GET", path).0, 200, "{path}");
+    }
+    for k in 1..=5 {
+        let (code, body) = req(a, "POST", "/api/step");
+        assert_eq!(code, 200, "{body}");
+        assert_eq!(json(&body)["tick"], k);
+    }
+    let took = t0.elapsed();
+    eprintln!("with 100 idle connections open: page, scene, state and 5 steps in {took:?}");
+    assert!(took < Duration::from_secs(1), "took {took:?}");
+    assert_eq!(r.handle.stats().rejected, 0);
+    drop(idle);
+}
+
+#[test]
+fn robots_can_be_inspected_and_series_grow() {
+    let r = start(seed_transport());
+    let a = r.addr();
+    let (code, body) = req(a, "POST", "/api/step?n=30");
+    assert_eq!(code, 200, "{body}");
+    let robot = json(&req(a, "GET", "/api/robot?i=3").1);
+    assert_eq!(robot["robot"], 3);
+    assert_eq!(robot["tick"], 30);
+    assert!(robot["state"].as_str().is_some_and(|s| !s.is_empty()));
+    assert!(robot["controller"].is_string());
+    // The Khepera IV's 8 proximity and 8 light sensors, readings in [0, 1].
+    for k in ["proximity", "light"] {
+        let v = robot["readings"][k].as_array().expect(k);
+        assert_eq!(v.len(), 8, "{k}");
+        assert!(v
+            .iter()
+            .all(|x| x.as_f64().is_some_and(|x| (0.0..=1.0).contains(&x))));
+    }
+    assert_eq!(robot["proximity_angles"].as_array().map(Vec::len), Some(8));
+    assert!(robot["readings"]["blobs"].is_array());
+    // State history: at least the state at the start of the window, times within the last minute.
+    let h = robot["history"].as_array().expect("history");
+    assert!(!h.is_empty());
+    assert!(h
+        .iter()
+        .all(|e| e["t_s"].as_f64().is_some_and(|t| t <= 3.0)));
+    for (target, want) in [
+        ("/api/robot?i=20", 404),
+        ("/api/robot?i=x", 400),
+        ("/api/robot", 400),
+        ("/api/robot?i=1&j=2", 400),
+        ("/api/series?x=1", 400),
+    ] {
+        assert_eq!(req(a, "GET", target).0, want, "{target}");
+    }
+    let s1 = json(&req(a, "GET", "/api/series").1);
+    let n1 = s1["t_s"].as_array().map_or(0, Vec::len);
+    assert_eq!(n1, 7, "t = 0, 0.5, ..., 3 s: {s1}");
+    assert!(s1["states"].as_array().is_some_and(|s| !s.is_empty()));
+    assert_eq!(
+        s1["robots_in_state"].as_array().map(Vec::len),
+        s1["states"].as_array().map(Vec::len)
+    );
+    assert!(s1["goal_distance_m"][0].as_f64().is_some());
+    req(a, "POST", "/api/step?n=20");
+    let s2 = json(&req(a, "GET", "/api/series").1);
+    assert_eq!(s2["t_s"].as_array().map_or(0, Vec::len), n1 + 4);
+    // A restart starts a new series.
+    req(a, "POST", "/api/restart?seed=3");
+    let s3 = json(&req(a, "GET", "/api/series").1);
+    assert_eq!(s3["t_s"].as_array().map_or(0, Vec::len), 1);
+    assert_eq!(s3["generation"], 2);
+}
+
+#[test]
+fn a_replay_is_checked_against_its_stored_result() {
+    use formica::experiment::{run, RunOptions};
+    use formica::Overrides;
+    let sc = small();
+    let stored = run(
+        &sc,
+        &RunOptions {
+            overrides: Overrides {
+                seed: Some(4),
+                duration_s: Some(3.0),
+                controller: None,
+            },
+            ..RunOptions::default()
+        },
+    )
+    .expect("runs")
+    .0;
+    for tamper in [false, true] {
+        let mut stored = stored.clone();
+        if tamper {
+            stored.object_path_m += 1.0;
+        }
+        let r = start_with(small(), |o| {
+            o.seed = Some(4);
+            o.duration_s = Some(3.0);
+            o.replay = Some(formica_serve::ReplayInfo {
+                label: "trial 7 of test.db".into(),
+                seed: 4,
+                stored: stored.clone(),
+                params: vec![("robots.0.count".into(), "3".into())],
+            });
+        });
+        let a = r.addr();
+        let scene = json(&req(a, "GET", "/api/scene").1);
+        assert_eq!(scene["replay"]["label"], "trial 7 of test.db");
+        assert_eq!(scene["replay"]["stored_outcome"], "timeout");
+        let s = json(&req(a, "GET", "/api/state").1);
+        assert_eq!(s["replay"]["active"], true);
+        assert_eq!(s["replay"]["ended"], false);
+        assert!(s["replay"]["matches"].is_null());
+        let s = json(&req(a, "POST", "/api/step?n=100").1);
+        assert_eq!(s["tick"], 30);
+        assert_eq!(s["replay"]["ended"], true);
+        assert_eq!(s["replay"]["matches"], !tamper, "{s}");
+        let diffs = s["replay"]["differences"].as_array().expect("list");
+        assert_eq!(diffs.len(), usize::from(tamper), "{diffs:?}");
+        if tamper {
+            assert!(diffs[0]
+                .as_str()
+                .is_some_and(|d| d.starts_with("object_path_m")));
+        }
+        // Another seed is not the trial.
+        let s = json(&req(a, "POST", "/api/restart?seed=5").1);
+        assert_eq!(s["replay"]["active"], false);
+    }
 }

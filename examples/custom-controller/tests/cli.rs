@@ -227,6 +227,18 @@ fn sweep_stores_the_end_of_run_fields_and_export_and_report_show_them() {
     ok(&o);
     let md = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
     assert!(md.contains("`gathered_fraction` (mean)"), "{md}");
+    // Failed trials replay with this binary, which knows the controller; so does the report's
+    // provenance name it.
+    assert!(
+        md.contains("`formica-phototaxis serve --db speed.db --trial "),
+        "{md}"
+    );
+    assert!(
+        md.contains("`formica-phototaxis report speed.db --out "),
+        "{md}"
+    );
+    assert!(!md.contains("`formica serve"), "{md}");
+    assert!(out.join("failures").is_dir());
     assert!(out
         .join("extra-gathered-fraction-robots-0-params-speed.png")
         .is_file());
@@ -360,4 +372,145 @@ fn serve_shows_the_custom_controller_on_loopback() {
     let _ = child.kill();
     let _ = child.wait();
     result.expect("serve answers on loopback");
+}
+
+/// The four provenance fields of every result.
+const PROVENANCE: [&str; 4] = [
+    "formica_version",
+    "git_commit",
+    "scenario_sha256",
+    "platform",
+];
+
+/// The sweep's store in a fresh folder for test `name`.
+fn swept(name: &str) -> (PathBuf, PathBuf) {
+    let dir = tmp(name);
+    let db = dir.join("speed.db");
+    let o = bin()
+        .args(["sweep", "--quiet", "--db"])
+        .arg(&db)
+        .arg(here("sweep.toml"))
+        .output()
+        .expect("runs");
+    ok(&o);
+    (dir, db)
+}
+
+#[test]
+fn stored_trials_replay_with_their_end_of_run_fields_and_carry_provenance() {
+    let (dir, db) = swept("replay");
+    // Every stored trial replays exactly, its end-of-run fields included.
+    let o = bin()
+        .args(["run", "--trial", "all", "--db"])
+        .arg(&db)
+        .output()
+        .expect("runs");
+    let text = ok(&o);
+    assert!(
+        text.contains("replayed 6 trials, 6 end as stored, 0 differ"),
+        "{text}"
+    );
+    // One replay's JSON line: the custom fields and the provenance of this build.
+    let o = bin()
+        .args(["run", "--json", "--trial", "4", "--db"])
+        .arg(&db)
+        .output()
+        .expect("runs");
+    let r = json(ok(&o).trim());
+    assert_eq!(r["controller"], "phototaxis");
+    assert!(r.contains_key("gathered_fraction"), "{r:?}");
+    for k in PROVENANCE {
+        assert!(r[k].as_str().is_some_and(|s| !s.is_empty()), "{k}: {r:?}");
+    }
+    assert!(String::from_utf8_lossy(&o.stderr).contains("ends as stored"));
+    // --version is formica's, with the commit that every result carries.
+    let o = bin().arg("--version").output().expect("runs");
+    let v = ok(&o);
+    assert!(
+        v.starts_with(&format!("formica {} (commit ", env!("CARGO_PKG_VERSION"))),
+        "{v}"
+    );
+    let commit = v
+        .split("(commit ")
+        .nth(1)
+        .and_then(|s| s.split(',').next())
+        .unwrap_or("");
+    assert_eq!(r["git_commit"], commit);
+
+    // The store: provenance columns in every row, before the end-of-run fields in the export.
+    let o = bin()
+        .args(["export", "--csv", "-"])
+        .arg(&db)
+        .output()
+        .expect("runs");
+    let csv = ok(&o);
+    let header: Vec<&str> = csv.lines().next().unwrap_or("").split(',').collect();
+    let at = |c: &str| header.iter().position(|h| *h == c).expect(c);
+    assert!(at("platform") < at("wall_time_s"), "{header:?}");
+    assert!(at("wall_time_s") < at("gather_time_s"), "{header:?}");
+    let c = rusqlite::Connection::open(&db).expect("opens");
+    let empty: i64 = c
+        .query_row(
+            "SELECT COUNT(*) FROM trials WHERE git_commit IS NULL OR git_commit = ''
+                 OR scenario_sha256 IS NULL OR scenario_sha256 = ''",
+            [],
+            |r| r.get(0),
+        )
+        .expect("counts");
+    assert_eq!(empty, 0);
+
+    // A stored end-of-run field that the replay does not reproduce fails it, by name.
+    c.execute(
+        "UPDATE trials SET gathered_fraction = gathered_fraction + 0.5 WHERE trial = 1",
+        [],
+    )
+    .expect("updates");
+    drop(c);
+    let o = bin()
+        .args(["run", "--trial", "1", "--db"])
+        .arg(&db)
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(1));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("does NOT end as stored"), "{text}");
+    assert!(text.contains("gathered_fraction: "), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn serve_replays_a_stored_trial_and_checks_it_against_the_store() {
+    let (dir, db) = swept("serve-replay");
+    let mut child = bin()
+        .args(["serve", "--port", "0", "--trial", "2", "--db"])
+        .arg(&db)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starts");
+    let mut line = String::new();
+    if let Some(out) = child.stdout.take() {
+        let _ = BufReader::new(out).read_line(&mut line);
+    }
+    let result = (|| {
+        let url = line
+            .split_whitespace()
+            .find(|w| w.starts_with("http://"))
+            .ok_or_else(|| format!("no address in `{line}`"))?;
+        let authority = url.trim_start_matches("http://").trim_end_matches('/');
+        let scene = http(authority, "GET", "/api/scene")?;
+        if !scene.contains("trial 2 of speed.db") {
+            return Err(format!("not the replay: {scene:.400}"));
+        }
+        // 60 s at 10 ticks per second: this runs it to its end.
+        let state = http(authority, "POST", "/api/step?n=1000")?;
+        if !state.contains("\"matches\":true") {
+            return Err(format!("does not end as stored: {state:.2000}"));
+        }
+        Ok(())
+    })();
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_dir_all(&dir);
+    result.expect("the replay ends as stored");
 }
