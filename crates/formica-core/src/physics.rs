@@ -938,7 +938,10 @@ impl Physics {
     /// The bounding box (min, max corners) of a wall or object found by [`Physics::nearby`], as
     /// of the last [`Physics::rebuild_index`]; `None` for robots.
     pub fn fixture_box(&self, n: &Nearby) -> Option<(Vec2, Vec2)> {
-        let i = self.fixtures.iter().position(|f| f.collider == n.collider)?;
+        let i = self
+            .fixtures
+            .iter()
+            .position(|f| f.collider == n.collider)?;
         let b = self.index.fixture_boxes.get(i)?;
         Some((b.mins, b.maxs))
     }

@@ -1209,9 +1209,10 @@ impl Scenario {
             }
             let mut last = 0.0f32;
             for (k, w) in ls.path.iter().enumerate() {
-                if !(w[0] >= last) {
-                    return Err(self.error_at(
-                        l.span(),
+                // Finite by now (limits::check).
+                if w[0] < last {
+                    return Err(self.error_at_key(
+                        &format!("lights[{i}].path[{k}]"),
                         format!(
                             "lights[{i}].path[{k}]: expected times in increasing order from 0 \
                              (`[t_s, x, y]`), got t = {} after {last}",

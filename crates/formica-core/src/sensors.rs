@@ -596,7 +596,10 @@ fn bearing_span(b: Option<(Vec2, Vec2)>, center: Vec2, heading: f32) -> Option<(
         a = a.min(o);
         z = z.max(o);
     }
-    Some((wrap_angle(mid + (a + z) / 2.0 - heading), (z - a) / 2.0 + 1e-3))
+    Some((
+        wrap_angle(mid + (a + z) / 2.0 - heading),
+        (z - a) / 2.0 + 1e-3,
+    ))
 }
 
 /// The colour scan: per bin, the first body its ray meets within range. Robots are cast only

@@ -245,7 +245,13 @@ impl Relay {
     /// One tick of the relay rule, after [`Relay::observe`]. `free`: the robot is searching
     /// or approaching (not circling, pushing or escaping); `real_goal`: its light sensors see
     /// the goal light. Returns whether it is a relay now.
-    pub fn update(&mut self, r: &Readings, free: bool, real_goal: bool, rng: &mut RobotRng) -> bool {
+    pub fn update(
+        &mut self,
+        r: &Readings,
+        free: bool,
+        real_goal: bool,
+        rng: &mut RobotRng,
+    ) -> bool {
         let now = r.time_s;
         let View { goal, object } = self.view;
         let wide_angle = self.p.angle_deg.to_radians();
@@ -352,11 +358,26 @@ mod tests {
         let mut rng = RobotRng::seed_from_u64(1);
         let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
         // Goal ahead, object behind: 180 degrees apart.
-        assert!(!step(&mut relay, &readings(0.1, Some(0.0), Some(3.0), &l), true, &mut rng));
-        assert!(step(&mut relay, &readings(0.2, None, Some(3.0), &l), true, &mut rng));
+        assert!(!step(
+            &mut relay,
+            &readings(0.1, Some(0.0), Some(3.0), &l),
+            true,
+            &mut rng
+        ));
+        assert!(step(
+            &mut relay,
+            &readings(0.2, None, Some(3.0), &l),
+            true,
+            &mut rng
+        ));
         assert!(relay.is_relay());
         // It stays until the object comes near.
-        assert!(step(&mut relay, &readings(5.0, None, Some(3.0), &l), true, &mut rng));
+        assert!(step(
+            &mut relay,
+            &readings(5.0, None, Some(3.0), &l),
+            true,
+            &mut rng
+        ));
     }
 
     #[test]
@@ -365,23 +386,63 @@ mod tests {
         let mut rng = RobotRng::seed_from_u64(2);
         // The object 20 degrees from the goal: walking into its shadow is not an obstacle's.
         let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(&mut relay, &readings(0.1, Some(0.0), Some(0.35), &l), true, &mut rng);
-        assert!(!step(&mut relay, &readings(0.2, None, Some(0.35), &l), true, &mut rng));
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), Some(0.35), &l),
+            true,
+            &mut rng,
+        );
+        assert!(!step(
+            &mut relay,
+            &readings(0.2, None, Some(0.35), &l),
+            true,
+            &mut rng
+        ));
         // A circling or pushing robot never relays.
         let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(&mut relay, &readings(0.1, Some(0.0), Some(3.0), &l), false, &mut rng);
-        assert!(!step(&mut relay, &readings(0.2, None, Some(3.0), &l), false, &mut rng));
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), Some(3.0), &l),
+            false,
+            &mut rng,
+        );
+        assert!(!step(
+            &mut relay,
+            &readings(0.2, None, Some(3.0), &l),
+            false,
+            &mut rng
+        ));
         // Without the object in sight, no relay (unless `needs_object = false`).
         let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(&mut relay, &readings(0.1, Some(0.0), None, &l), true, &mut rng);
-        assert!(!step(&mut relay, &readings(0.2, None, None, &l), true, &mut rng));
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), None, &l),
+            true,
+            &mut rng,
+        );
+        assert!(!step(
+            &mut relay,
+            &readings(0.2, None, None, &l),
+            true,
+            &mut rng
+        ));
         let p = Params {
             needs_object: false,
             ..Params::default()
         };
         let mut relay = Relay::new(p, &l, vec![Color::Green]);
-        step(&mut relay, &readings(0.1, Some(0.0), None, &l), true, &mut rng);
-        assert!(step(&mut relay, &readings(0.2, None, None, &l), true, &mut rng));
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), None, &l),
+            true,
+            &mut rng,
+        );
+        assert!(step(
+            &mut relay,
+            &readings(0.2, None, None, &l),
+            true,
+            &mut rng
+        ));
     }
 
     #[test]
@@ -389,8 +450,18 @@ mod tests {
         let l = layout();
         let mut rng = RobotRng::seed_from_u64(3);
         let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(&mut relay, &readings(0.1, Some(0.0), Some(3.0), &l), true, &mut rng);
-        assert!(step(&mut relay, &readings(0.2, None, Some(3.0), &l), true, &mut rng));
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), Some(3.0), &l),
+            true,
+            &mut rng,
+        );
+        assert!(step(
+            &mut relay,
+            &readings(0.2, None, Some(3.0), &l),
+            true,
+            &mut rng
+        ));
         // The object 0.05 m from the body.
         let mut near = readings(10.0, None, Some(3.0), &l);
         for (c, d) in near.scan_color.iter().zip(near.scan_range.iter_mut()) {
@@ -402,8 +473,18 @@ mod tests {
         assert!(relay.wait_until >= 10.0 && relay.wait_until <= 15.0);
         // Seeing the real goal also ends it.
         let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(&mut relay, &readings(0.1, Some(0.0), Some(3.0), &l), true, &mut rng);
-        assert!(step(&mut relay, &readings(0.2, None, Some(3.0), &l), true, &mut rng));
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), Some(3.0), &l),
+            true,
+            &mut rng,
+        );
+        assert!(step(
+            &mut relay,
+            &readings(0.2, None, Some(3.0), &l),
+            true,
+            &mut rng
+        ));
         let r = readings(0.3, None, Some(3.0), &l);
         relay.observe(&r, &l);
         assert!(!relay.update(&r, true, true, &mut rng));
