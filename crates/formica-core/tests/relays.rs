@@ -104,29 +104,33 @@ fn a_relay_forms_where_an_obstacle_hides_the_goal() {
 
 #[test]
 fn a_relay_dissolves_when_the_object_arrives() {
-    // The 0.4 m square: its surface is at most 0.283 m from its centre, a Khepera IV's 0.07 m
-    // from its own. With the centres within 0.32 m, the gap is under 0.05 m, inside
-    // `relay.release_m` (0.1 m): the relay must end within 2 s.
+    // The 0.4 m square: its surface is 0.2 to 0.283 m from its centre, a Khepera IV's 0.07 m
+    // from its own. A relay leaves when its colour scan puts the object within
+    // `relay.release_m` (0.1 m) of its body: with the centres 0.5 m apart or less (a gap of at
+    // most 0.23 m, scan bins and noise included). With the centres within 0.32 m (a gap under
+    // 0.05 m) no relay may stay on for more than 2 s.
     let sc = shipped("qm-middle.toml");
     let mut arrivals = 0;
     for seed in 1..=4 {
         let (eps, _) = episodes(&sc, seed, 1200.0);
         for e in &eps {
-            let Some(k) = e.near.iter().position(|(_, d)| *d <= 0.32) else {
-                continue;
-            };
-            arrivals += 1;
-            let (t0, _) = e.near[k];
-            let (t_last, _) = *e.near.last().unwrap();
-            assert!(
-                e.ended && t_last - t0 <= 2.0,
-                "seed {seed}: robot {} still relays {:.1} s after the object reached it",
-                e.robot,
-                t_last - t0
-            );
+            let (_, last) = *e.near.last().unwrap();
+            if e.ended && last <= 0.5 {
+                arrivals += 1;
+            }
+            if let Some(k) = e.near.iter().position(|(_, d)| *d <= 0.32) {
+                let (t0, _) = e.near[k];
+                let (t_last, _) = *e.near.last().unwrap();
+                assert!(
+                    e.ended && t_last - t0 <= 2.0,
+                    "seed {seed}: robot {} still relays {:.1} s after the object reached it",
+                    e.robot,
+                    t_last - t0
+                );
+            }
         }
     }
-    assert!(arrivals > 0, "the object reached no relay in 4 runs");
+    assert!(arrivals > 0, "no relay ended with the object at it in 4 runs");
 }
 
 #[test]
