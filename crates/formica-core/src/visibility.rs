@@ -130,13 +130,10 @@ pub fn shortest_path(from: P, to: P, obstacles: &[Vec<P>], bounds: (P, P)) -> f6
     let mut best = vec![f64::INFINITY; n];
     let mut done = vec![false; n];
     best[0] = 0.0;
-    loop {
-        let Some(u) = (0..n)
-            .filter(|&i| !done[i] && best[i].is_finite())
-            .min_by(|&a, &b| best[a].total_cmp(&best[b]))
-        else {
-            break;
-        };
+    while let Some(u) = (0..n)
+        .filter(|&i| !done[i] && best[i].is_finite())
+        .min_by(|&a, &b| best[a].total_cmp(&best[b]))
+    {
         if u == 1 {
             return best[1];
         }

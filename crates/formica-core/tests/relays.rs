@@ -130,7 +130,10 @@ fn a_relay_dissolves_when_the_object_arrives() {
             }
         }
     }
-    assert!(arrivals > 0, "no relay ended with the object at it in 4 runs");
+    assert!(
+        arrivals > 0,
+        "no relay ended with the object at it in 4 runs"
+    );
 }
 
 #[test]
