@@ -21,7 +21,8 @@
 //! - **Approaching** the object needs both the object and a goal in sight ([`Relay::gate`]).
 //!
 //! Where this departs from Queiroz and MacRae's code (`simulation/src/pusherCommon.cpp`,
-//! `pusherScript.cpp` in github.com/brenocq/object-transportation), see the README.
+//! `pusherScript.cpp` in github.com/brenocq/object-transportation), see
+//! `docs/src/results/obstacles.md`.
 
 use crate::controller::RobotRng;
 use crate::geometry::{wrap_angle, Vec2};
