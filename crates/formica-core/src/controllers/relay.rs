@@ -348,6 +348,21 @@ mod tests {
         }
     }
 
+    /// As [`readings`] without the goal, with a wall (grey) 0.5 m ahead where the goal was:
+    /// the goal lost behind an obstacle.
+    fn lost(t: f32, object: Option<f32>, l: &SensorLayout) -> Readings {
+        let mut r = readings(t, None, object, l);
+        let (i, _) = l
+            .scan_angles
+            .iter()
+            .enumerate()
+            .min_by(|a, b| wrap_angle(*a.1).abs().total_cmp(&wrap_angle(*b.1).abs()))
+            .unwrap();
+        r.scan_color[i] = Color::Grey;
+        r.scan_range[i] = 0.5;
+        r
+    }
+
     fn step(relay: &mut Relay, r: &Readings, free: bool, rng: &mut RobotRng) -> bool {
         relay.observe(r, &layout());
         relay.update(r, free, false, rng)
@@ -365,12 +380,7 @@ mod tests {
             true,
             &mut rng
         ));
-        assert!(step(
-            &mut relay,
-            &readings(0.2, None, Some(3.0), &l),
-            true,
-            &mut rng
-        ));
+        assert!(step(&mut relay, &lost(0.2, Some(3.0), &l), true, &mut rng));
         assert!(relay.is_relay());
         // It stays until the object comes near.
         assert!(step(
@@ -385,7 +395,8 @@ mod tests {
     fn no_relay_where_the_object_hides_the_goal_or_the_robot_is_busy() {
         let l = layout();
         let mut rng = RobotRng::seed_from_u64(2);
-        // The object 20 degrees from the goal: walking into its shadow is not an obstacle's.
+        // The object 20 degrees from the goal, no wall where the goal was: walking into the
+        // object's shadow is not losing the goal behind an obstacle.
         let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
         step(
             &mut relay,
@@ -409,7 +420,7 @@ mod tests {
         );
         assert!(!step(
             &mut relay,
-            &readings(0.2, None, Some(3.0), &l),
+            &lost(0.2, Some(3.0), &l),
             false,
             &mut rng
         ));
@@ -421,12 +432,7 @@ mod tests {
             true,
             &mut rng,
         );
-        assert!(!step(
-            &mut relay,
-            &readings(0.2, None, None, &l),
-            true,
-            &mut rng
-        ));
+        assert!(!step(&mut relay, &lost(0.2, None, &l), true, &mut rng));
         let p = Params {
             needs_object: false,
             ..Params::default()
@@ -438,12 +444,7 @@ mod tests {
             true,
             &mut rng,
         );
-        assert!(step(
-            &mut relay,
-            &readings(0.2, None, None, &l),
-            true,
-            &mut rng
-        ));
+        assert!(step(&mut relay, &lost(0.2, None, &l), true, &mut rng));
     }
 
     #[test]
@@ -457,12 +458,7 @@ mod tests {
             true,
             &mut rng,
         );
-        assert!(step(
-            &mut relay,
-            &readings(0.2, None, Some(3.0), &l),
-            true,
-            &mut rng
-        ));
+        assert!(step(&mut relay, &lost(0.2, Some(3.0), &l), true, &mut rng));
         // The object 0.05 m from the body.
         let mut near = readings(10.0, None, Some(3.0), &l);
         for (c, d) in near.scan_color.iter().zip(near.scan_range.iter_mut()) {
@@ -480,12 +476,7 @@ mod tests {
             true,
             &mut rng,
         );
-        assert!(step(
-            &mut relay,
-            &readings(0.2, None, Some(3.0), &l),
-            true,
-            &mut rng
-        ));
+        assert!(step(&mut relay, &lost(0.2, Some(3.0), &l), true, &mut rng));
         let r = readings(0.3, None, Some(3.0), &l);
         relay.observe(&r, &l);
         assert!(!relay.update(&r, true, true, &mut rng));
