@@ -37,7 +37,7 @@ if [ "$need_install" = 1 ]; then
 fi
 export PATH="$PATH:/usr/sbin:/sbin"
 
-WORK=$(mktemp -d /tmp/formica-slurm-XXXXXX)
+WORK=$(mktemp -d -t formica-slurm-XXXXXX)
 chmod 755 "$WORK"
 PIDS=()
 cleanup() {

@@ -41,6 +41,7 @@ mod output;
 mod plots;
 pub mod provenance;
 mod replay;
+pub mod schema;
 mod stats;
 mod store;
 mod sweep;
@@ -75,6 +76,8 @@ enum Command {
     Serve(cmd_serve::Args),
     /// Render a run to an animated GIF or an MP4 video.
     Record(cmd_record::Args),
+    /// Print the JSON Schema of scenario or sweep files (for editors), or the scenario reference.
+    Schema(schema::Args),
 }
 
 /// An error with the exit code it deserves: 2 for bad input, 1 otherwise.
@@ -267,6 +270,7 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
         Command::Slurm(a) => cmd_slurm::main(a),
         Command::Serve(a) => cmd_serve::main(a),
         Command::Record(a) => cmd_record::main(a),
+        Command::Schema(a) => schema::main(a),
     };
     r.map_err(|e| match e {
         CliError::Input(message) => CommandError { code: 2, message },

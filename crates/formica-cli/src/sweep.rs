@@ -8,10 +8,10 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// A sweep file as written.
-#[derive(Debug, Deserialize)]
+/// A sweep (experiment) file: a base scenario, fixed overrides, the keys to vary and the seeds.
+#[derive(Debug, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
-struct SweepSpec {
+pub(crate) struct SweepSpec {
     /// Name of the study (default: the file stem).
     #[serde(default)]
     name: Option<String>,
@@ -19,21 +19,27 @@ struct SweepSpec {
     #[serde(default)]
     scenario: Option<String>,
     /// `"A..B"` (inclusive) or a list of seeds.
+    #[schemars(schema_with = "crate::schema::seeds_schema")]
     seeds: toml::Value,
     /// Simulated time limit of every trial (same as `"run.duration_s"` in `[set]`).
     #[serde(default)]
+    #[schemars(range(min = 0.0, max = formica::limits::MAX_DURATION_S))]
     duration_s: Option<f64>,
     /// Store the object's trajectory of every trial.
     #[serde(default)]
     trajectories: bool,
-    /// Fixed overrides applied to every trial.
+    /// Fixed overrides applied to every trial: dotted scenario keys (`"objects.0.mass"`) and
+    /// their values.
     #[serde(default)]
+    #[schemars(schema_with = "crate::schema::set_schema")]
     set: toml::Table,
     /// Explicit parameter sets (each a table of overrides, `scenario` allowed).
     #[serde(default)]
+    #[schemars(schema_with = "crate::schema::cases_schema")]
     cases: Vec<toml::Table>,
     /// Keys to vary, each with its list of values: the grid is their product.
     #[serde(default)]
+    #[schemars(schema_with = "crate::schema::vary_schema")]
     vary: toml::Table,
 }
 

@@ -50,6 +50,7 @@ use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 /// A named set of noise levels.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum NoisePreset {

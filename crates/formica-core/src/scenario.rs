@@ -40,6 +40,7 @@ pub enum ScenarioError {
 }
 
 /// An LED / body colour, as cameras see it.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Color {
@@ -104,19 +105,24 @@ impl Color {
 }
 
 /// The rectangular arena, walled on all four sides.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Arena {
     /// Usable size `[x, y]` in metres; walls are centred on its border.
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = limits::MIN_SIZE_M, max = limits::MAX_ARENA_M))))]
     pub size: [f32; 2],
     /// Centre of the arena.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_ARENA_M, max = limits::MAX_ARENA_M))))]
     pub center: [f32; 2],
     /// Wall thickness (m).
     #[serde(default = "default_wall_thickness")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_HEIGHT_M)))]
     pub wall_thickness: f32,
     /// Wall height (m).
     #[serde(default = "default_wall_height")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_HEIGHT_M)))]
     pub wall_height: f32,
 }
 
@@ -128,32 +134,41 @@ fn default_wall_height() -> f32 {
 }
 
 /// An extra static wall or obstacle box.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WallSpec {
     /// Centre.
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_COORD_M, max = limits::MAX_COORD_M))))]
     pub at: [f32; 2],
     /// Size `[x, y]` before rotation.
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = limits::MIN_SIZE_M, max = limits::MAX_COORD_M))))]
     pub size: [f32; 2],
     /// Rotation in degrees.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = -limits::MAX_ANGLE_DEG, max = limits::MAX_ANGLE_DEG)))]
     pub yaw_deg: f32,
     /// Height (m).
     #[serde(default = "default_wall_height")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_HEIGHT_M)))]
     pub height: f32,
 }
 
 /// A light: the goal of transport, or the object beacon of filling.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightSpec {
     /// Floor position.
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_COORD_M, max = limits::MAX_COORD_M))))]
     pub at: [f32; 2],
     /// Height above the floor (m).
     #[serde(default = "default_light_height")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_HEIGHT_M)))]
     pub height: f32,
     /// Intensity (ARGoS units; readings fall to zero at 2.5 x intensity metres).
     #[serde(default = "default_intensity")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_INTENSITY)))]
     pub intensity: f32,
     /// Whether this light marks the transport goal (default: the first light).
     #[serde(default)]
@@ -205,37 +220,46 @@ fn default_intensity() -> f32 {
 }
 
 /// `{ sides = 6, radius = 0.3 }`.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RegularSpec {
     /// Number of sides.
+    #[cfg_attr(feature = "schema", schemars(range(min = 3, max = limits::MAX_REGULAR_SIDES)))]
     pub sides: u32,
     /// Circumradius (m).
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_SIZE_M)))]
     pub radius: f32,
 }
 
 /// One shape: exactly one of `box`, `disc`, `polygon`, `regular`, optionally placed with
 /// `at` and `yaw_deg` in the object's frame.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PartSpec {
     /// Box `[width, depth]`.
     #[serde(rename = "box", default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = limits::MIN_SIZE_M, max = limits::MAX_SIZE_M))))]
     pub box_: Option<[f32; 2]>,
     /// Disc radius.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_SIZE_M)))]
     pub disc: Option<f32>,
     /// Simple polygon (concave allowed), vertices in order.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(length(min = 3, max = limits::MAX_POLYGON_VERTICES)))]
     pub polygon: Option<Vec<[f32; 2]>>,
     /// Regular polygon.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub regular: Option<RegularSpec>,
     /// Offset from the object's origin.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_SIZE_M, max = limits::MAX_SIZE_M))))]
     pub at: [f32; 2],
     /// Rotation (degrees).
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = -limits::MAX_ANGLE_DEG, max = limits::MAX_ANGLE_DEG)))]
     pub yaw_deg: f32,
 }
 
@@ -275,6 +299,7 @@ impl PartSpec {
 }
 
 /// An object: static or movable, any polygonal shape.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectSpec {
@@ -283,27 +308,34 @@ pub struct ObjectSpec {
     pub name: Option<String>,
     /// Position of the object's origin.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_COORD_M, max = limits::MAX_COORD_M))))]
     pub at: [f32; 2],
     /// Rotation (degrees) about `at`.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = -limits::MAX_ANGLE_DEG, max = limits::MAX_ANGLE_DEG)))]
     pub yaw_deg: f32,
     /// A single shape (use this or `parts`).
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(with = "Option<PartSpec>"))]
     pub shape: Option<Spanned<PartSpec>>,
     /// A union of shapes in the object's frame (use this or `shape`).
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(with = "Vec<PartSpec>", length(max = limits::MAX_ITEMS)))]
     pub parts: Vec<Spanned<PartSpec>>,
     /// Height (m): decides what it hides from light sensors.
     #[serde(default = "default_object_height")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_HEIGHT_M)))]
     pub height: f32,
     /// Mass (kg).
     #[serde(default = "default_mass")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_MASS_KG)))]
     pub mass: f32,
     /// Whether robots can push it.
     #[serde(default = "default_true")]
     pub movable: bool,
     /// Floor friction coefficient: the floor resists with up to `floor_mu * mass * 9.81` N.
     #[serde(default = "default_floor_mu")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_FLOOR_MU)))]
     pub floor_mu: f32,
     /// Colour seen by cameras.
     #[serde(default = "default_object_color")]
@@ -329,30 +361,38 @@ fn default_object_color() -> Color {
 }
 
 /// Where a group's robots start.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Placement {
     /// Uniformly random, non-overlapping, in a rectangle.
     Random {
         /// Lower corner.
+        #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_COORD_M, max = limits::MAX_COORD_M))))]
         min: [f32; 2],
         /// Upper corner.
+        #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_COORD_M, max = limits::MAX_COORD_M))))]
         max: [f32; 2],
         /// Fixed heading in degrees (default: random).
         #[serde(default)]
+        #[cfg_attr(feature = "schema", schemars(range(min = -limits::MAX_ANGLE_DEG, max = limits::MAX_ANGLE_DEG)))]
         heading_deg: Option<f32>,
     },
     /// A grid of `columns` along x, rows along y, centred on `center`.
     Grid {
         /// Centre of the grid.
+        #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_COORD_M, max = limits::MAX_COORD_M))))]
         center: [f32; 2],
         /// Distance between neighbours (m).
+        #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_SIZE_M)))]
         spacing: f32,
         /// Robots per row along x (default: a square-ish grid).
         #[serde(default)]
+        #[cfg_attr(feature = "schema", schemars(range(min = 1, max = limits::MAX_ROBOTS)))]
         columns: Option<usize>,
         /// Heading in degrees.
         #[serde(default)]
+        #[cfg_attr(feature = "schema", schemars(range(min = -limits::MAX_ANGLE_DEG, max = limits::MAX_ANGLE_DEG)))]
         heading_deg: f32,
     },
     /// Explicit `[x, y, heading_deg]` per robot.
@@ -360,18 +400,22 @@ pub enum Placement {
 }
 
 /// When robots enter the arena.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct Release {
     /// Seconds between releases (0: all at once). Robots enter in placement order.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_DURATION_S)))]
     pub interval_s: f32,
     /// Time of the first release.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_DURATION_S)))]
     pub start_s: f32,
 }
 
 /// What the colour-blob camera returns.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum CameraKind {
@@ -396,6 +440,7 @@ impl CameraKind {
 
 /// Sensor options of a robot group. `noise` picks a preset (default `"realistic"`, see
 /// [`crate::noise`]); every noise key set here overrides the preset's value.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct SensorOptions {
@@ -404,54 +449,70 @@ pub struct SensorOptions {
     pub noise: NoisePreset,
     /// Proximity: relative spread (fraction of the reading).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub proximity_noise: Option<f32>,
     /// Proximity: additive spread (reading units).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub proximity_floor: Option<f32>,
     /// Light: relative spread (fraction of the reading).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub light_noise: Option<f32>,
     /// Light: additive spread (reading units).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub light_floor: Option<f32>,
     /// Ambient light added to every light sensor (reading units, below 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = 0.999)))]
     pub ambient_light: Option<f32>,
     /// Positioning: spread per coordinate (m).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SIZE_M)))]
     pub position_noise: Option<f32>,
     /// Positioning: heading spread (rad).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub heading_noise: Option<f32>,
     /// Object beacon: spread per coordinate (m).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SIZE_M)))]
     pub beacon_noise: Option<f32>,
     /// Object beacon: largest distance (m) at which the robot gets it (default: any).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = 2.0 * limits::MAX_COORD_M)))]
     pub beacon_range: Option<f32>,
     /// What the colour-blob camera returns: `"blob"` (default) or `"oracle"` (ablation).
     #[serde(default)]
     pub camera: CameraKind,
     /// Blob camera: bearing spread (rad).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub camera_noise: Option<f32>,
     /// Blob camera: relative distance spread.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub camera_distance_noise: Option<f32>,
     /// Range of the colour-blob camera (m). Default 1.5.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_RANGE_M)))]
     pub camera_range: Option<f32>,
     /// Colour scan: number of bearing bins round the robot. Default 36.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 4, max = 360)))]
     pub scan_bins: Option<u32>,
     /// Colour scan: range (m). Default 1.0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_RANGE_M)))]
     pub scan_range: Option<f32>,
     /// Colour scan: ranges are rounded to multiples of this (m). Default 0.02.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_RANGE_M)))]
     pub scan_step: Option<f32>,
     /// Colour scan: relative range spread.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SPREAD)))]
     pub scan_noise: Option<f32>,
 }
 
@@ -565,22 +626,31 @@ impl SensorOptions {
 }
 
 /// A group of identical robots.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RobotGroup {
     /// Robot model: a name in the scenario's [`Registry`] (built in: `khepera4`, `foot-bot`,
     /// `e-puck`).
     #[serde(default = "default_model")]
+    #[cfg_attr(feature = "schema", schemars(with = "String"))]
     pub model: Spanned<String>,
     /// Number of robots (default: the number of explicit poses).
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = 1, max = limits::MAX_ROBOTS)))]
     pub count: Option<usize>,
     /// Controller: a name in the scenario's [`Registry`].
+    #[cfg_attr(feature = "schema", schemars(with = "String"))]
     pub controller: Spanned<String>,
     /// Controller parameters.
     #[serde(default)]
+    #[cfg_attr(
+        feature = "schema",
+        schemars(with = "Option<serde_json::Map<String, serde_json::Value>>")
+    )]
     pub params: Option<Spanned<toml::Table>>,
     /// Start positions.
+    #[cfg_attr(feature = "schema", schemars(with = "Placement"))]
     pub placement: Spanned<Placement>,
     /// Release schedule.
     #[serde(default)]
@@ -595,20 +665,24 @@ fn default_model() -> Spanned<String> {
 }
 
 /// Run settings.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunSpec {
     /// Control ticks per second.
     #[serde(default = "default_tick_hz")]
+    #[cfg_attr(feature = "schema", schemars(range(min = limits::TICK_HZ.0, max = limits::TICK_HZ.1)))]
     pub tick_hz: f32,
     /// Physics steps per tick: `"auto"` (the default, see [`Substeps::Auto`]) or a number.
     #[serde(default)]
     pub substeps: Substeps,
     /// Simulated time limit (s).
     #[serde(default = "default_duration")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_DURATION_S)))]
     pub duration_s: f32,
     /// Default seed.
     #[serde(default = "default_seed")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0, max = limits::MAX_SEED)))]
     pub seed: u64,
 }
 
@@ -640,6 +714,22 @@ pub fn steps_for(speed: f32, radius: f32, tick_hz: f32) -> u32 {
         (steps as u32).clamp(1, 100)
     } else {
         1
+    }
+}
+
+#[cfg(feature = "schema")]
+impl schemars::JsonSchema for Substeps {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Substeps".into()
+    }
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "description": "Physics steps per control tick: \"auto\" (as few as keep every body to a third of the smallest robot radius per step) or a fixed number.",
+            "anyOf": [
+                { "type": "string", "const": "auto" },
+                { "type": "integer", "minimum": 1, "maximum": 100 }
+            ]
+        })
     }
 }
 
@@ -699,6 +789,7 @@ impl Default for RunSpec {
 }
 
 /// Stop rules.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StopSpec {
@@ -706,9 +797,11 @@ pub struct StopSpec {
     /// point. Default (Queiroz & MacRae): (goal_size + object size) / 2 + 0.05, object size being
     /// its bounding diagonal.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_COORD_M)))]
     pub goal_radius: Option<f32>,
     /// Size of the goal region (m), for the default goal radius.
     #[serde(default = "default_goal_size")]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_SIZE_M)))]
     pub goal_size: f32,
     /// Stop with `success` when the object reaches the goal.
     #[serde(default = "default_true")]
@@ -719,6 +812,7 @@ pub struct StopSpec {
     /// Stop with `success` once every robot is released and this fraction of them is attached
     /// to the object (filling experiments). Off unless set.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = 1.0)))]
     pub on_filled: Option<f32>,
 }
 
@@ -739,6 +833,7 @@ impl Default for StopSpec {
 }
 
 /// The whole file, as written.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ScenarioSpec {
@@ -752,15 +847,19 @@ pub struct ScenarioSpec {
     pub arena: Arena,
     /// Extra walls.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(with = "Vec<WallSpec>", length(max = limits::MAX_ITEMS)))]
     pub walls: Vec<Spanned<WallSpec>>,
     /// Lights.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(with = "Vec<LightSpec>", length(max = limits::MAX_ITEMS)))]
     pub lights: Vec<Spanned<LightSpec>>,
     /// Objects.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(with = "Vec<ObjectSpec>", length(max = limits::MAX_ITEMS)))]
     pub objects: Vec<Spanned<ObjectSpec>>,
     /// Robot groups.
     #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(with = "Vec<RobotGroup>", length(max = limits::MAX_ITEMS)))]
     pub robots: Vec<Spanned<RobotGroup>>,
     /// Run settings.
     #[serde(default)]

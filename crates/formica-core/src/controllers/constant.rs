@@ -5,10 +5,11 @@ use crate::controller::{
 };
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Parameters of `constant`.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
     /// Left wheel speed (m/s).

@@ -37,10 +37,11 @@ use crate::geometry::wrap_angle;
 use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Which behaviour pushes once filling is over.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Pusher {
     /// The `occlusion` controller (parameters in `push`).
@@ -54,7 +55,8 @@ pub enum Pusher {
 
 /// Parameters of `fill-transport`: `fill` and `push` are the parameter tables of `filling` and
 /// `occlusion`.
-#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
     /// Filling-phase parameters (as `filling`; default `object_reach = 0.21`, so attached

@@ -49,11 +49,12 @@ use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
 
 /// Which camera tells neighbours from the object.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FillPerception {
     /// The colour scan (default).
@@ -64,7 +65,8 @@ pub enum FillPerception {
 }
 
 /// Parameters of `filling` (all optional; defaults suit Khepera IV and the seed's objects).
-#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
     /// Speed toward the beacon (m/s). Default 0.1 (the seed's maximum).

@@ -62,11 +62,12 @@ use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// How a robot finds the object.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Perception {
     /// Told the object's centre (`Readings::beacon`); proximity tells where its surface is.
@@ -77,7 +78,8 @@ pub enum Perception {
 }
 
 /// Which way robots go round the object.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Side {
     /// Left-hand rule: object on the robot's left, counter-clockwise seen from above.
@@ -91,7 +93,8 @@ pub enum Side {
 }
 
 /// Parameters of `occlusion` (all optional; defaults suit Khepera IV and the seed's 0.5 m box).
-#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
     /// `"beacon"` (default) or `"camera"`.

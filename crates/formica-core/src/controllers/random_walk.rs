@@ -6,10 +6,11 @@ use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Parameters of `random-walk`.
-#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
     /// Cruise speed (m/s).
