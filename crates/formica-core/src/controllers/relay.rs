@@ -30,10 +30,11 @@ use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout};
 use rand::Rng;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Parameters of the relay behaviour (the `relay` table of `occlusion`; all optional).
-#[derive(Debug, Clone, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
     /// Colour of the goal as the camera sees it, and of a relay's LEDs. Default `cyan`.
@@ -112,7 +113,8 @@ impl Params {
 }
 
 /// What makes a relay give up standing in for the goal, besides the object arriving.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LeaveOn {
     /// Its light sensors see the goal light (relays are LEDs, not lamps).
