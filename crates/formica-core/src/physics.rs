@@ -1223,6 +1223,17 @@ impl Physics {
         false
     }
 
+    /// The bounding box (min, max corners) of a wall or object found by [`Physics::nearby`], as
+    /// of the last [`Physics::rebuild_index`]; `None` for robots.
+    pub fn fixture_box_of(&self, n: &Nearby) -> Option<(Vec2, Vec2)> {
+        let i = self
+            .fixtures
+            .iter()
+            .position(|f| f.collider == n.collider)?;
+        let b = self.index.fixture_boxes.get(i)?;
+        Some((b.mins, b.maxs))
+    }
+
     /// Casts a ray against a few colliders only; returns the index in `candidates` and the
     /// distance of the first hit within `max_dist`.
     pub fn cast_local(

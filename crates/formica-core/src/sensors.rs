@@ -8,7 +8,8 @@
 //! - Positioning (own pose) and an object beacon (the object's centre, within `beacon_range`).
 //! - Colour-blob camera, as ARGoS's: bearing, distance estimate and colour of the lit LEDs of
 //!   other robots in range, unless a body taller than the line of sight hides them (see
-//!   [`sight_blocked`]). No object bodies, no identity. `camera = "oracle"` (an ablation) adds
+//!   [`sight_blocked`]), and of lights that have a colour (a coloured goal region). No object
+//!   bodies, no identity. `camera = "oracle"` (an ablation) adds
 //!   every coloured body with the exact distance to its surface.
 //! - Colour scan, as Queiroz and MacRae's panoramic cameras: a ring of bearing bins, each the
 //!   colour of the first body its ray meets (object colour, LED colour, black for an unlit
@@ -30,7 +31,7 @@ use crate::scenario::{CameraKind, Color, SensorConfig};
 use rand::Rng;
 use std::f32::consts::{PI, TAU};
 
-/// Most blobs the camera reports (the nearest).
+/// Most LED blobs the camera reports (the nearest); coloured lights come on top.
 pub const MAX_BLOBS: usize = 16;
 
 /// One coloured blob seen by the camera.
@@ -59,7 +60,8 @@ pub struct Readings {
     /// The centre of the nearest movable object in the world frame (of the target object when
     /// none is movable), if the robot has the beacon and is within range of it.
     pub beacon: Option<Vec2>,
-    /// Camera blobs, nearest first, at most [`MAX_BLOBS`] (empty without a camera).
+    /// Camera blobs, nearest first: at most [`MAX_BLOBS`] LEDs (the nearest) and every
+    /// coloured light in sight (empty without a camera).
     pub blobs: Vec<Blob>,
     /// Colour scan: the colour each bin sees (bins at [`SensorLayout::scan_angles`]; empty
     /// without a scan).
@@ -138,6 +140,8 @@ pub struct Light {
     pub height: f32,
     /// Intensity.
     pub intensity: f32,
+    /// Colour the blob camera sees it in ([`Color::Off`]: not seen by cameras).
+    pub color: Color,
 }
 
 /// What the world tells the sensors, besides the physics.
@@ -520,6 +524,10 @@ pub fn sense(
         }
         out.blobs.sort_by(|a, b| a.distance.total_cmp(&b.distance));
         out.blobs.truncate(MAX_BLOBS);
+        if ctx.lights.iter().any(|l| l.color != Color::Off) {
+            light_blobs(ctx, model, cfg, me, pose, scratch, rng, &mut out.blobs);
+            out.blobs.sort_by(|a, b| a.distance.total_cmp(&b.distance));
+        }
     }
     out.scan_color.clear();
     out.scan_range.clear();
@@ -676,7 +684,7 @@ fn blob_camera(
         // and groups mixing models are rare: the viewer's own model stands in for it.
         let led_h = model.led_height;
         let hidden = near.iter().any(|m| {
-            if m.tag == me || m.tag == n.tag {
+            if m.tag == me || m.tag == n.tag || misses(ctx, m, center, dir, dist) {
                 return false;
             }
             let Some(t_in) = ctx.physics.ray_entry(m, center, dir, dist) else {
@@ -703,6 +711,89 @@ fn blob_camera(
             bearing: rng.angle(ops::angle_of(to) - pose.theta, nz.camera_noise),
             distance: rng.distance(dist, nz.camera_distance_noise),
             color,
+        });
+    }
+}
+
+/// Whether a body surely misses the segment from `from` along `dir` (unit) for `len`: a cheap
+/// test before the exact ray cast (a robot's disc, or a wall's or object's bounding box).
+fn misses(ctx: &SenseContext<'_>, n: &Nearby, from: Vec2, dir: Vec2, len: f32) -> bool {
+    let Tag::Robot(q) = n.tag else {
+        let Some((lo, hi)) = ctx.physics.fixture_box_of(n) else {
+            return false;
+        };
+        let to = from + dir * len;
+        let m = 1e-4;
+        return from.x.max(to.x) < lo.x - m
+            || from.x.min(to.x) > hi.x + m
+            || from.y.max(to.y) < lo.y - m
+            || from.y.min(to.y) > hi.y + m;
+    };
+    let Some(&(p, r)) = ctx.robots.get(q) else {
+        return false;
+    };
+    let rel = p - from;
+    let t = rel.dot(dir);
+    let r = r * 1.001 + 1e-4;
+    t < -r || t > len + r || (rel - dir * t).length() > r
+}
+
+/// Coloured lights (a goal region of a colour, as Queiroz and MacRae's) as blobs: each light
+/// with a colour within the camera's range whose line of sight (camera height to the light's
+/// height) no taller body cuts; the distance is to its floor point. Uses the bodies the camera
+/// found near the robot (`scratch.near`).
+#[expect(clippy::too_many_arguments, reason = "private helper of `sense`")]
+fn light_blobs(
+    ctx: &SenseContext<'_>,
+    model: &RobotModel,
+    cfg: &SensorConfig,
+    me: Tag,
+    pose: Pose,
+    scratch: &Scratch,
+    rng: &mut noise::Gauss<'_, impl Rng>,
+    out: &mut Vec<Blob>,
+) {
+    let center = pose.position();
+    for light in ctx.lights {
+        if light.color == Color::Off {
+            continue;
+        }
+        let to = light.position - center;
+        let dist = to.length();
+        if dist > cfg.camera_range {
+            continue;
+        }
+        if dist > 1e-6 {
+            let dir = to / dist;
+            let hidden = scratch.near.iter().any(|m| {
+                if m.tag == me || misses(ctx, m, center, dir, dist) {
+                    return false;
+                }
+                let Some(t_in) = ctx.physics.ray_entry(m, center, dir, dist) else {
+                    return false;
+                };
+                let t_out = ctx
+                    .physics
+                    .ray_entry(m, light.position, -dir, dist)
+                    .map_or(t_in, |s| dist - s);
+                sight_blocked(
+                    model.camera_height,
+                    light.height,
+                    dist,
+                    t_in,
+                    t_out,
+                    (ctx.height)(m.tag),
+                )
+            });
+            if hidden {
+                continue;
+            }
+        }
+        let nz = &cfg.noise;
+        out.push(Blob {
+            bearing: rng.angle(ops::angle_of(to) - pose.theta, nz.camera_noise),
+            distance: rng.distance(dist, nz.camera_distance_noise),
+            color: light.color,
         });
     }
 }
@@ -762,6 +853,27 @@ fn oracle_camera(
             color,
         });
     }
+}
+
+/// The bearings (robot frame) under which a box `(min, max)` lies as seen from `center`: the
+/// middle bearing and the half-width (rad), widened by a milliradian so that rays grazing a
+/// corner stay in; `None` without a box or from inside it.
+fn bearing_span(b: Option<(Vec2, Vec2)>, center: Vec2, heading: f32) -> Option<(f32, f32)> {
+    let (lo, hi) = b?;
+    if center.x >= lo.x && center.x <= hi.x && center.y >= lo.y && center.y <= hi.y {
+        return None;
+    }
+    let mid = ops::angle_of((lo + hi) * 0.5 - center);
+    let (mut a, mut z) = (0.0f32, 0.0f32);
+    for c in [lo, hi, Vec2::new(lo.x, hi.y), Vec2::new(hi.x, lo.y)] {
+        let o = wrap_angle(ops::angle_of(c - center) - mid);
+        a = a.min(o);
+        z = z.max(o);
+    }
+    Some((
+        wrap_angle(mid + (a + z) / 2.0 - heading),
+        (z - a) / 2.0 + 1e-3,
+    ))
 }
 
 /// The colour scan: per bin, the first body its ray meets within range. Robots are cast only
@@ -824,8 +936,20 @@ fn scan(
                 }
             }
             Tag::Wall(_) | Tag::Object(_) => {
-                for i in 0..bins {
-                    try_bin(i, &mut scratch.scan);
+                // Only the bins whose rays can meet its bounding box (all of them from inside).
+                match bearing_span(ctx.physics.fixture_box_of(n), center, pose.theta) {
+                    Some((a, half)) => {
+                        let lo = ((a - half) / width).ceil() as i64;
+                        let hi = ((a + half) / width).floor() as i64;
+                        for b in lo..=hi.min(lo + bins as i64 - 1) {
+                            try_bin(b.rem_euclid(bins as i64) as usize, &mut scratch.scan);
+                        }
+                    }
+                    None => {
+                        for i in 0..bins {
+                            try_bin(i, &mut scratch.scan);
+                        }
+                    }
                 }
             }
         }

@@ -189,6 +189,8 @@ pub struct World {
     pool: Option<Arc<rayon::ThreadPool>>,
     /// Time spent in each part of the tick, when measured ([`World::measure_time`]).
     pub timing: Option<StepTiming>,
+    /// Moving lights: index and schedule.
+    light_paths: Vec<(usize, crate::scenario::LightSpec)>,
 }
 
 /// Wall-clock time spent in each part of [`World::step`] since timing was switched on.
@@ -350,7 +352,15 @@ impl World {
                 position: Vec2::new(l.at[0], l.at[1]),
                 height: l.height,
                 intensity: l.intensity,
+                color: l.color,
             })
+            .collect();
+        let light_paths = spec
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| !l.get_ref().path.is_empty())
+            .map(|(i, l)| (i, l.get_ref().clone()))
             .collect();
 
         // Robot groups and placement.
@@ -456,6 +466,7 @@ impl World {
             buffers: SenseBuffers::default(),
             pool: None,
             timing: None,
+            light_paths,
         };
         world.release();
         Ok(world)
@@ -482,6 +493,7 @@ impl World {
         self.tick += 1;
         self.time_s = self.tick as f64 / self.tick_hz;
         let t1 = t0.map(|_| Instant::now());
+        self.move_lights();
         self.sense();
         let t2 = t0.map(|_| Instant::now());
         self.control();
@@ -665,6 +677,17 @@ impl World {
             let body = self.physics.add_robot(model, r.start, i);
             self.robots[i].body = Some(body);
             self.robots[i].state = "released";
+        }
+    }
+
+    /// Puts moving lights where their schedule has them now.
+    fn move_lights(&mut self) {
+        let t = self.time_s as f32;
+        for (i, spec) in &self.light_paths {
+            let [x, y] = spec.position_at(t);
+            if let Some(l) = self.lights.get_mut(*i) {
+                l.position = Vec2::new(x, y);
+            }
         }
     }
 

@@ -27,6 +27,8 @@
 //!
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
+//! With `relays = true` (sub-goal relays, [`relay`](super::relay)) a pusher that relays shows
+//! the goal's colour instead (state `relay`).
 
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
 use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
@@ -92,6 +94,9 @@ pub struct Params {
     /// followed the edge during its lap; the pusher's `object_reach` is at least this. Default
     /// 0.12.
     pub reach_margin: f32,
+    /// Sub-goal relays for the pushers (`push.relays`, see [`relay`](super::relay)); the
+    /// attached robots' blue LEDs count as the object. Default false.
+    pub relays: bool,
 }
 
 impl Default for Params {
@@ -114,6 +119,7 @@ impl Default for Params {
             push_speed: 0.1,
             hidden_s: 0.3,
             attached_push: 0.3,
+            relays: false,
         }
     }
 }
@@ -123,7 +129,8 @@ pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
-    let p: Params = parse_params(params)?;
+    let mut p: Params = parse_params(params)?;
+    p.push.relays |= p.relays;
     p.fill.validate().map_err(|e| format!("fill: {e}"))?;
     p.push.validate().map_err(|e| format!("push: {e}"))?;
     let positive = |x: f32| x > 0.0 && x.is_finite();
@@ -206,9 +213,11 @@ pub struct FillTransport {
 impl FillTransport {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> FillTransport {
+        let mut pusher = Occlusion::new(p.push, layout);
+        pusher.add_relay_object_color(Color::Blue);
         FillTransport {
             filler: Filler::new(p.fill, layout),
-            pusher: Occlusion::new(p.push, layout),
+            pusher,
             laps: p.laps,
             pushing: false,
             occluded_within: p.occluded_within_deg.to_radians(),
@@ -378,7 +387,9 @@ impl Controller for FillTransport {
             self.pusher.veto_hidden();
         }
         let act = self.pusher.step(&self.seen, rng);
-        let led = if self.pusher.is_pushing() {
+        let led = if self.pusher.is_relay() {
+            act.led
+        } else if self.pusher.is_pushing() {
             Color::Red
         } else {
             Color::Yellow
