@@ -110,6 +110,8 @@ impl Build {
             },
             record: self.record,
             robot_every: 1,
+            // Python controllers run on the caller's thread (the GIL).
+            threads: 0,
         }
     }
 }

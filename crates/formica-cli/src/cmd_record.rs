@@ -119,6 +119,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
         overrides,
         record: false,
         robot_every: 1,
+        // One world: large swarms sense and control on every core (same results).
+        threads: formica::world::threads_for(sc.robot_count(), crate::available_threads()),
     };
     let mut run = Run::new(&sc, &opts)?;
     let ticks_per_frame = (run.world.tick_hz * f64::from(a.speed) / f64::from(a.fps)).round();

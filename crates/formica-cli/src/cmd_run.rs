@@ -39,7 +39,8 @@ pub struct Args {
     /// Print JSON lines instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Worker threads for `--seeds` (default: all cores). Results do not depend on it.
+    /// Worker threads (default: all cores): one trial each with `--seeds`, else the sensing
+    /// and control of one large swarm (400 robots or more). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
     /// Run even if the physics step is too coarse for contacts to hold (see `formica check`).
@@ -197,6 +198,11 @@ fn run_one(
         overrides: ov.clone(),
         record: a.out.is_some(),
         robot_every: 1,
+        // One world: large swarms sense and control on every core (same results).
+        threads: formica::world::threads_for(
+            sc.robot_count(),
+            a.threads.unwrap_or_else(crate::available_threads),
+        ),
     };
     let provenance = Provenance::of(sc, ov);
     let mut run = Run::new(sc, &opts)?;

@@ -87,6 +87,8 @@ fn run_trial(
         },
         record,
         robot_every: u64::MAX,
+        // Sweeps run one world per task.
+        threads: 1,
     };
     let mut run = Run::new(&set.scenario, &opts)?;
     let mut series = record.then(|| TimeSeries::new(&run.world, TIMESERIES_EVERY_S, usize::MAX));

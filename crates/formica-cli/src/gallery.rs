@@ -270,6 +270,8 @@ fn draw_pictures(db: &Path, trials: &[&StoredTrial], out: &Path) -> Result<Vec<P
                     overrides: r.overrides(),
                     record: true,
                     robot_every: u64::MAX,
+                    // One world per task.
+                    threads: 1,
                 };
                 let mut run = Run::new(&r.scenario, &opts).map_err(|e| e.to_string())?;
                 run.run_to_end();

@@ -280,3 +280,8 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
         },
     })
 }
+
+/// Cores this process may use (1 when unknown).
+pub(crate) fn available_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}

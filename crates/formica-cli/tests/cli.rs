@@ -185,7 +185,16 @@ fn missing_file_is_an_input_error() {
 #[test]
 fn bench_prints_json_lines() {
     let out = formica()
-        .args(["bench", "--robots", "10,40", "--ticks", "5", "--json"])
+        .args([
+            "bench",
+            "--robots",
+            "10,40",
+            "--ticks",
+            "5",
+            "--min-time",
+            "0",
+            "--json",
+        ])
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -198,6 +207,47 @@ fn bench_prints_json_lines() {
     assert_eq!(lines[1]["robots"], 40);
     assert!(lines[1]["robot_ticks_per_s"].as_f64().unwrap() > 0.0);
     assert!(lines[1].get("peak_memory_mib").is_some());
+    assert_eq!(lines[1]["workload"], "transport");
+    assert_eq!(lines[1]["threads"], 1);
+    for key in [
+        "physics_s",
+        "sense_s",
+        "control_s",
+        "us_per_robot_tick",
+        "setup_s",
+    ] {
+        assert!(lines[1][key].as_f64().unwrap() >= 0.0, "{key}");
+    }
+}
+
+/// Every workload runs, and two threads give the same end state as one.
+#[test]
+fn bench_workloads_and_threads() {
+    let line = |args: &[&str]| -> serde_json::Value {
+        let out = formica()
+            .args(["bench", "--ticks", "20", "--min-time", "0", "--json"])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().last().unwrap()).unwrap()
+    };
+    for w in ["fill-transport", "random-walk"] {
+        assert_eq!(line(&["--workload", w, "--robots", "30"])["workload"], w);
+    }
+    let one = line(&["--robots", "120"]);
+    let two = line(&["--robots", "120", "--threads", "2"]);
+    assert_eq!(two["threads"], 2);
+    assert_eq!(one["digest"], two["digest"]);
+    let out = formica()
+        .args(["bench", "--workload", "nope"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
 }
 
 #[test]

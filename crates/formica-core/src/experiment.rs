@@ -377,14 +377,67 @@ impl LoopFunctions for TransportHooks {
             let now = world.object_center(t);
             r.goal_distance_m = world.goal().map(|g| f64::from((now - g).length()));
             r.object_path_m = self.path_m;
-            let disp = f64::from((now - world.objects[t].start).length());
+            let start = world.objects[t].start;
+            let disp = f64::from((now - start).length());
+            // Around obstacles, the shortest path on a visibility graph (no extra walls: the
+            // straight distance, as before).
+            let optimal = if world.walls.len() > 4 {
+                optimal_path(world, t, start, now).max(disp)
+            } else {
+                disp
+            };
             r.path_efficiency = if self.path_m > 1e-9 {
-                (disp / self.path_m).min(1.0)
+                (optimal / self.path_m).min(1.0)
             } else {
                 0.0
             };
         }
     }
+}
+
+/// Length (m) of the shortest path of object `t`'s centre from `from` to `to` around the
+/// walls inside the arena (not the four arena walls; `world.walls.len() > 4`), each grown by the object's half-width
+/// (half the smaller side of its outline's bounding box), turning only where the grown object
+/// fits inside the arena ([`visibility::shortest_path`](crate::visibility::shortest_path)).
+pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
+    let pts: Vec<Vec2> = world.objects[t].outlines().into_iter().flatten().collect();
+    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+    for p in pts {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let r = f64::from(((hi - lo).x.min((hi - lo).y) / 2.0).max(0.0));
+    let obstacles: Vec<Vec<[f64; 2]>> = world.walls[4..]
+        .iter()
+        .map(|w| {
+            let (s, c) = crate::ops::sin_cos(w.yaw);
+            let (s, c) = (f64::from(s), f64::from(c));
+            let hx = f64::from(w.size.x) / 2.0 + r;
+            let hy = f64::from(w.size.y) / 2.0 + r;
+            [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)]
+                .iter()
+                .map(|(x, y)| {
+                    [
+                        f64::from(w.center.x) + c * x - s * y,
+                        f64::from(w.center.y) + s * x + c * y,
+                    ]
+                })
+                .collect()
+        })
+        .collect();
+    let (c, size) = world.arena;
+    // The arena walls are centred on the border: the floor ends half a thickness inside it.
+    let inset = f64::from(world.walls[0].size.x) / 2.0 + r;
+    let half = [
+        f64::from(size.x) / 2.0 - inset,
+        f64::from(size.y) / 2.0 - inset,
+    ];
+    let bounds = (
+        [f64::from(c.x) - half[0], f64::from(c.y) - half[1]],
+        [f64::from(c.x) + half[0], f64::from(c.y) + half[1]],
+    );
+    let p = |v: Vec2| [f64::from(v.x), f64::from(v.y)];
+    crate::visibility::shortest_path(p(from), p(to), &obstacles, bounds)
 }
 
 /// Options of one run.
@@ -396,6 +449,10 @@ pub struct RunOptions {
     pub record: bool,
     /// With `record`: keep robot poses every this many ticks (object: every tick).
     pub robot_every: u64,
+    /// Threads for sensing and control within the world (0 or 1: the caller's thread only).
+    /// Results are bit-identical for any number; [`crate::world::threads_for`] says how many
+    /// pay for a swarm size.
+    pub threads: usize,
 }
 
 /// A run in progress: a world, its hooks and its clock. [`run`] drives one to the end; a viewer
@@ -418,7 +475,9 @@ impl Run {
     /// transport and filling metrics).
     pub fn new(sc: &Scenario, opts: &RunOptions) -> Result<Run, ScenarioError> {
         let started = std::time::Instant::now();
-        let world = World::new(sc, &opts.overrides)?;
+        let mut world = World::new(sc, &opts.overrides)?;
+        // Without threads (none can be started) the world runs on this one: the same results.
+        let _ = world.set_threads(opts.threads);
         let goal_radius = goal_radius(sc, &world);
         let hooks = sc.registry().build_loop_functions(sc, &world);
         let duration = opts.overrides.duration_s.unwrap_or(sc.spec.run.duration_s);

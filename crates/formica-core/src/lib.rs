@@ -33,6 +33,7 @@ pub mod robot;
 pub mod scenario;
 pub mod sensors;
 pub mod timeseries;
+pub mod visibility;
 pub mod world;
 
 pub use experiment::{run, LoopFunctions, Outcome, RunOptions, RunResult, Trajectories};

@@ -216,6 +216,17 @@ pub(crate) fn check(sc: &Scenario) -> Result<(), ScenarioError> {
         c.real(l.intensity, MIN_SIZE_M, MAX_INTENSITY, "", || {
             format!("lights[{i}].intensity")
         })?;
+        c.items(l.path.len(), &format!("lights[{i}].path"))?;
+        for (k, w) in l.path.iter().enumerate() {
+            c.real(w[0], 0.0, MAX_DURATION_S, "s", || {
+                format!("lights[{i}].path[{k}][0]")
+            })?;
+            for (j, v) in w.iter().enumerate().skip(1) {
+                c.real(*v, -MAX_COORD_M, MAX_COORD_M, "m", || {
+                    format!("lights[{i}].path[{k}][{j}]")
+                })?;
+            }
+        }
     }
     c.items(s.objects.len(), "objects")?;
     for (i, o) in s.objects.iter().enumerate() {

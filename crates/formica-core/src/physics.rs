@@ -115,6 +115,19 @@ pub struct Nearby {
     /// What it belongs to.
     pub tag: Tag,
     collider: ColliderHandle,
+    /// Where it was at the last index rebuild, to skip ray casts that surely miss.
+    bound: Bound,
+}
+
+/// What a [`Nearby`] knows of its collider's place at the last index rebuild.
+#[derive(Debug, Clone, Copy)]
+enum Bound {
+    /// Nothing.
+    Unknown,
+    /// A robot: centre and radius.
+    Disc(Vec2, f32),
+    /// A wall or object: its bounding box.
+    Box(Vec2, Vec2),
 }
 
 /// A fixed joint holding a robot to a body.
@@ -178,10 +191,115 @@ struct NeighbourIndex {
     /// (position, slot in `Physics::robots`).
     items: Vec<(Vec2, u32)>,
     fixture_boxes: Vec<Aabb>,
+    /// Walls and objects by coarse cell, so that a query looks at the few near it.
+    fixture_grid: FixtureGrid,
     max_radius: f32,
+    /// Whether no body has moved since the last rebuild (the bounds in [`Nearby`] hold).
+    fresh: bool,
     /// The area the grid covers (the arena and its walls); robots outside it fall in its
     /// border cells.
     area: Option<(Vec2, Vec2)>,
+}
+
+/// A coarse grid of wall and object bounding boxes: each cell lists (in fixture order) the
+/// fixtures whose box overlaps it; boxes over many cells (walls) are in `big`, asked always.
+#[derive(Default)]
+struct FixtureGrid {
+    cell: f32,
+    min: Vec2,
+    nx: usize,
+    ny: usize,
+    starts: Vec<u32>,
+    items: Vec<u32>,
+    big: Vec<u32>,
+    /// Scratch of the last build: each small fixture's cell range.
+    spans: Vec<[usize; 4]>,
+}
+
+/// Fewer fixtures than this are scanned in full (no grid).
+const FIXTURE_GRID_MIN: usize = 9;
+
+/// A fixture box over more cells than this is asked by every query.
+const FIXTURE_BIG_CELLS: usize = 16;
+
+impl FixtureGrid {
+    fn clear(&mut self) {
+        self.nx = 0;
+        self.ny = 0;
+        self.starts.clear();
+        self.items.clear();
+        self.big.clear();
+    }
+
+    fn build(&mut self, boxes: &[Aabb], area: Option<(Vec2, Vec2)>) {
+        self.clear();
+        if boxes.len() < FIXTURE_GRID_MIN {
+            return;
+        }
+        let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        for b in boxes {
+            lo = lo.min(b.mins);
+            hi = hi.max(b.maxs);
+        }
+        if let Some(a) = area {
+            (lo, hi) = a;
+        }
+        let span = (hi - lo).max(Vec2::splat(1e-3));
+        let cell = (span.x * span.y / boxes.len() as f32)
+            .sqrt()
+            .max(1.0)
+            .max(span.x.max(span.y) / 1024.0);
+        if !cell.is_finite() {
+            return;
+        }
+        self.cell = cell;
+        self.min = lo;
+        self.nx = ((span.x / cell) as usize).min(1024) + 1;
+        self.ny = ((span.y / cell) as usize).min(1024) + 1;
+        let cells = self.nx * self.ny;
+        self.starts.resize(cells + 1, 0);
+        self.spans.clear();
+        for (i, b) in boxes.iter().enumerate() {
+            let [x0, y0] = self.cell_xy(b.mins);
+            let [x1, y1] = self.cell_xy(b.maxs);
+            let s = [x0, y0, x1, y1];
+            if (x1 - x0 + 1) * (y1 - y0 + 1) > FIXTURE_BIG_CELLS {
+                self.big.push(i as u32);
+                self.spans.push([1, 1, 0, 0]);
+                continue;
+            }
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    self.starts[y * self.nx + x + 1] += 1;
+                }
+            }
+            self.spans.push(s);
+        }
+        for c in 0..cells {
+            self.starts[c + 1] += self.starts[c];
+        }
+        let mut fill = self.starts.clone();
+        self.items.resize(self.starts[cells] as usize, 0);
+        for (i, &[x0, y0, x1, y1]) in self.spans.iter().enumerate() {
+            // (Big fixtures have an empty range.)
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let c = y * self.nx + x;
+                    self.items[fill[c] as usize] = i as u32;
+                    fill[c] += 1;
+                }
+            }
+        }
+    }
+
+    /// Cell column and row of a point (points outside fall in the border cells).
+    fn cell_xy(&self, p: Vec2) -> [usize; 2] {
+        let d = (p - self.min) / self.cell;
+        [
+            (d.x.max(0.0) as usize).min(self.nx - 1),
+            (d.y.max(0.0) as usize).min(self.ny - 1),
+        ]
+    }
 }
 
 /// Most cells of the neighbour grid, whatever the arena.
@@ -222,6 +340,47 @@ impl Motor {
                 .set_motor_velocity(axis, self.target, MOTOR_DAMPING),
         }
         .set_motor_max_force(axis, self.cap);
+    }
+}
+
+/// Whether the ray from `origin` along the unit vector `dir`, `max_dist` long, may meet a
+/// collider that was at `bound`: false only when it surely misses (by more than 1 mm, far
+/// above rounding), so that the exact ray cast can be skipped.
+#[inline]
+fn may_meet(bound: Bound, origin: Vec2, dir: Vec2, max_dist: f32) -> bool {
+    const PAD: f32 = 1e-3;
+    match bound {
+        Bound::Unknown => true,
+        Bound::Disc(c, r) => {
+            let rel = c - origin;
+            let along = rel.dot(dir);
+            let reach = r + PAD;
+            if along < -reach || along > max_dist + reach {
+                return false;
+            }
+            let t = along.clamp(0.0, max_dist.max(0.0));
+            let d = rel - dir * t;
+            d.dot(d) <= reach * reach
+        }
+        Bound::Box(lo, hi) => {
+            let (lo, hi) = (lo - Vec2::splat(PAD), hi + Vec2::splat(PAD));
+            let (mut t0, mut t1) = (0.0f32, max_dist + PAD);
+            for (o, d, l, h) in [(origin.x, dir.x, lo.x, hi.x), (origin.y, dir.y, lo.y, hi.y)] {
+                if d.abs() < 1e-9 {
+                    if o < l || o > h {
+                        return false;
+                    }
+                } else {
+                    let (a, b) = ((l - o) / d, (h - o) / d);
+                    t0 = t0.max(a.min(b));
+                    t1 = t1.min(a.max(b));
+                    if t0 > t1 + PAD {
+                        return false;
+                    }
+                }
+            }
+            true
+        }
     }
 }
 
@@ -332,7 +491,11 @@ impl Physics {
             body,
             &mut self.world.bodies,
         );
-        self.fixtures.push(Nearby { tag, collider });
+        self.fixtures.push(Nearby {
+            tag,
+            collider,
+            bound: Bound::Unknown,
+        });
         BodyId {
             body,
             collider,
@@ -374,6 +537,7 @@ impl Physics {
         self.fixtures.push(Nearby {
             tag: Tag::Object(index),
             collider,
+            bound: Bound::Unknown,
         });
         let b = &self.world.bodies[body];
         let com = b.local_center_of_mass();
@@ -476,6 +640,7 @@ impl Physics {
             Nearby {
                 tag: Tag::Robot(index),
                 collider,
+                bound: Bound::Unknown,
             },
             model.radius,
         ));
@@ -785,6 +950,7 @@ impl Physics {
     /// Call [`Physics::drive`] for every robot first.
     pub fn step(&mut self) {
         self.set_floor_friction();
+        self.index.fresh = false;
         self.world.step();
         let p = &self.world.integration_parameters;
         self.last_step = (p.dt, p.num_solver_iterations);
@@ -828,6 +994,11 @@ impl Physics {
             idx.fixture_boxes
                 .push(self.world.colliders[f.collider].compute_aabb());
         }
+        idx.fixture_grid.build(&idx.fixture_boxes, idx.area);
+        for (f, b) in self.fixtures.iter_mut().zip(&idx.fixture_boxes) {
+            f.bound = Bound::Box(b.mins, b.maxs);
+        }
+        idx.fresh = true;
         idx.items.clear();
         let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
         idx.max_radius = 0.0;
@@ -898,9 +1069,11 @@ impl Physics {
         out.clear();
         let idx = &self.index;
         let query = Aabb::new(center - Vec2::splat(radius), center + Vec2::splat(radius));
-        for (f, b) in self.fixtures.iter().zip(&idx.fixture_boxes) {
-            if b.intersects(&query) {
-                out.push(*f);
+        if !self.nearby_fixtures_by_grid(&query, out) {
+            for (f, b) in self.fixtures.iter().zip(&idx.fixture_boxes) {
+                if b.intersects(&query) {
+                    out.push(*f);
+                }
             }
         }
         if idx.nx == 0 {
@@ -922,8 +1095,9 @@ impl Physics {
                 idx.starts[row + x1 + 1] as usize,
             );
             for &(p, slot) in &idx.items[a..b] {
-                let (n, r) = self.robots[slot as usize];
+                let (mut n, r) = self.robots[slot as usize];
                 if (p.x - center.x).abs() <= radius + r && (p.y - center.y).abs() <= radius + r {
+                    n.bound = Bound::Disc(p, r);
                     out.push(n);
                 }
             }
@@ -933,6 +1107,131 @@ impl Physics {
             Tag::Robot(i) => i,
             _ => usize::MAX,
         });
+    }
+
+    /// The fixtures whose boxes meet `query`, in fixture order, from the fixture grid; false
+    /// (and nothing pushed) when there is no grid or the query spans too many cells.
+    fn nearby_fixtures_by_grid(&self, query: &Aabb, out: &mut Vec<Nearby>) -> bool {
+        let g = &self.index.fixture_grid;
+        if g.nx == 0 {
+            return false;
+        }
+        let [x0, y0] = g.cell_xy(query.mins);
+        let [x1, y1] = g.cell_xy(query.maxs);
+        const CAP: usize = 64;
+        let mut buf = [0u32; CAP];
+        let mut n = 0;
+        for &f in &g.big {
+            if n == CAP {
+                return false;
+            }
+            buf[n] = f;
+            n += 1;
+        }
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let c = y * g.nx + x;
+                for &f in &g.items[g.starts[c] as usize..g.starts[c + 1] as usize] {
+                    if n == CAP {
+                        return false;
+                    }
+                    buf[n] = f;
+                    n += 1;
+                }
+            }
+        }
+        let buf = &mut buf[..n];
+        buf.sort_unstable();
+        let mut last = u32::MAX;
+        for &f in buf.iter() {
+            if f == last {
+                continue;
+            }
+            last = f;
+            if self.index.fixture_boxes[f as usize].intersects(query) {
+                out.push(self.fixtures[f as usize]);
+            }
+        }
+        true
+    }
+
+    /// The bounding box (lower and upper corners) of fixture `i` ([`Physics::fixtures`]) as of
+    /// the last [`Physics::rebuild_index`].
+    pub fn fixture_box(&self, i: usize) -> (Vec2, Vec2) {
+        let b = &self.index.fixture_boxes[i];
+        (b.mins, b.maxs)
+    }
+
+    /// Calls `f` with every robot whose disc may meet the segment from `a` to `a + dir * len`
+    /// (`dir` a unit vector): every robot whose disc comes within 1 mm of it, and none farther,
+    /// in grid order; stops and returns true when `f` does. Uses the index of the last
+    /// [`Physics::rebuild_index`], walking only the cells along the segment.
+    pub fn robots_along(
+        &self,
+        a: Vec2,
+        dir: Vec2,
+        len: f32,
+        mut f: impl FnMut(Nearby) -> bool,
+    ) -> bool {
+        let idx = &self.index;
+        if idx.nx == 0 || !(len >= 0.0) {
+            return false;
+        }
+        let b = a + dir * len;
+        let pad = idx.max_radius + 1e-3;
+        let (lo, hi) = (a.min(b) - Vec2::splat(pad), a.max(b) + Vec2::splat(pad));
+        let col = |x: f32| (((x - idx.min.x) / idx.cell).max(0.0) as usize).min(idx.nx - 1);
+        let row = |y: f32| (((y - idx.min.y) / idx.cell).max(0.0) as usize).min(idx.ny - 1);
+        let (c0, c1) = (col(lo.x), col(hi.x));
+        for cx in c0..=c1 {
+            // The segment's y range over the column's x range (widened by the pad); the
+            // border columns hold the robots beyond the grid too.
+            let xa = if cx == 0 {
+                f32::MIN
+            } else {
+                idx.min.x + cx as f32 * idx.cell - pad
+            };
+            let xb = if cx == idx.nx - 1 {
+                f32::MAX
+            } else {
+                idx.min.x + (cx + 1) as f32 * idx.cell + pad
+            };
+            let (ya, yb) = if dir.x.abs() > 1e-6 {
+                let ta = ((xa - a.x) / dir.x).clamp(0.0, len);
+                let tb = ((xb - a.x) / dir.x).clamp(0.0, len);
+                let (p, q) = (a.y + dir.y * ta, a.y + dir.y * tb);
+                (p.min(q) - pad, p.max(q) + pad)
+            } else {
+                (lo.y, hi.y)
+            };
+            let (r0, r1) = (row(ya.max(lo.y)), row(yb.min(hi.y)));
+            for cy in r0..=r1 {
+                let c = cy * idx.nx + cx;
+                let (s, e) = (idx.starts[c] as usize, idx.starts[c + 1] as usize);
+                for &(p, slot) in &idx.items[s..e] {
+                    let (mut n, r) = self.robots[slot as usize];
+                    let t = (p - a).dot(dir).clamp(0.0, len);
+                    let d = p - (a + dir * t);
+                    let reach = r + 1e-3;
+                    n.bound = Bound::Disc(p, r);
+                    if d.dot(d) <= reach * reach && f(n) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// The bounding box (min, max corners) of a wall or object found by [`Physics::nearby`], as
+    /// of the last [`Physics::rebuild_index`]; `None` for robots.
+    pub fn fixture_box_of(&self, n: &Nearby) -> Option<(Vec2, Vec2)> {
+        let i = self
+            .fixtures
+            .iter()
+            .position(|f| f.collider == n.collider)?;
+        let b = self.index.fixture_boxes.get(i)?;
+        Some((b.mins, b.maxs))
     }
 
     /// Casts a ray against a few colliders only; returns the index in `candidates` and the
@@ -951,8 +1250,11 @@ impl Physics {
             if Some(c.tag) == skip {
                 continue;
             }
-            let col = &self.world.colliders[c.collider];
             let limit = best.map_or(max_dist, |b| b.1);
+            if self.index.fresh && !may_meet(c.bound, origin, dir, limit) {
+                continue;
+            }
+            let col = &self.world.colliders[c.collider];
             if let Some(t) = col.shape().cast_ray(col.position(), &ray, limit, true) {
                 if best.is_none_or(|b| t < b.1) {
                     best = Some((i, t));
@@ -969,6 +1271,9 @@ impl Physics {
 
     /// Distance along the ray at which it enters a collider, if within `max_dist`.
     pub fn ray_entry(&self, n: &Nearby, origin: Vec2, dir: Vec2, max_dist: f32) -> Option<f32> {
+        if self.index.fresh && !may_meet(n.bound, origin, dir, max_dist) {
+            return None;
+        }
         let col = &self.world.colliders[n.collider];
         col.shape()
             .cast_ray(col.position(), &Ray::new(origin, dir), max_dist, true)

@@ -173,6 +173,43 @@ pub struct LightSpec {
     /// Whether this light marks the transport goal (default: the first light).
     #[serde(default)]
     pub goal: Option<bool>,
+    /// Colour the blob camera sees it in (a coloured goal region, as Queiroz and MacRae's);
+    /// default `off`: light sensors only.
+    #[serde(default, skip_serializing_if = "is_off")]
+    pub color: Color,
+    /// A moving light: waypoints `[t_s, x, y]` in increasing time. It starts at `at`, moves
+    /// in a straight line at constant speed to each waypoint in turn, reaching it at its time,
+    /// and stays at the last one.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub path: Vec<[f32; 3]>,
+}
+
+fn is_off(c: &Color) -> bool {
+    *c == Color::Off
+}
+
+impl LightSpec {
+    /// Floor position at time `t` (s): `at`, or where `path` has moved it by then.
+    pub fn position_at(&self, t: f32) -> [f32; 2] {
+        let mut from = (0.0f32, self.at);
+        for w in &self.path {
+            let to = (w[0], [w[1], w[2]]);
+            if t < to.0 {
+                let span = to.0 - from.0;
+                let k = if span > 0.0 {
+                    ((t - from.0) / span).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                };
+                return [
+                    from.1[0] + (to.1[0] - from.1[0]) * k,
+                    from.1[1] + (to.1[1] - from.1[1]) * k,
+                ];
+            }
+            from = to;
+        }
+        from.1
+    }
 }
 
 fn default_light_height() -> f32 {
@@ -1268,6 +1305,21 @@ impl Scenario {
                     l.span(),
                     format!("lights[{i}]: expected `height` >= 0 and `intensity` > 0"),
                 ));
+            }
+            let mut last = 0.0f32;
+            for (k, w) in ls.path.iter().enumerate() {
+                // Finite by now (limits::check).
+                if w[0] < last {
+                    return Err(self.error_at_key(
+                        &format!("lights[{i}].path[{k}]"),
+                        format!(
+                            "lights[{i}].path[{k}]: expected times in increasing order from 0 \
+                             (`[t_s, x, y]`), got t = {} after {last}",
+                            w[0]
+                        ),
+                    ));
+                }
+                last = w[0];
             }
         }
         for (i, o) in s.objects.iter().enumerate() {

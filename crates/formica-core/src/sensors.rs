@@ -8,7 +8,8 @@
 //! - Positioning (own pose) and an object beacon (the object's centre, within `beacon_range`).
 //! - Colour-blob camera, as ARGoS's: bearing, distance estimate and colour of the lit LEDs of
 //!   other robots in range, unless a body taller than the line of sight hides them (see
-//!   [`sight_blocked`]). No object bodies, no identity. `camera = "oracle"` (an ablation) adds
+//!   [`sight_blocked`]), and of lights that have a colour (a coloured goal region). No object
+//!   bodies, no identity. `camera = "oracle"` (an ablation) adds
 //!   every coloured body with the exact distance to its surface.
 //! - Colour scan, as Queiroz and MacRae's panoramic cameras: a ring of bearing bins, each the
 //!   colour of the first body its ray meets (object colour, LED colour, black for an unlit
@@ -30,7 +31,7 @@ use crate::scenario::{CameraKind, Color, SensorConfig};
 use rand::Rng;
 use std::f32::consts::{PI, TAU};
 
-/// Most blobs the camera reports (the nearest).
+/// Most LED blobs the camera reports (the nearest); coloured lights come on top.
 pub const MAX_BLOBS: usize = 16;
 
 /// One coloured blob seen by the camera.
@@ -56,9 +57,11 @@ pub struct Readings {
     pub light: Vec<f32>,
     /// Own pose from the positioning sensor.
     pub pose: Pose,
-    /// The object's centre in the world frame, if the robot has the beacon and is in range.
+    /// The centre of the nearest movable object in the world frame (of the target object when
+    /// none is movable), if the robot has the beacon and is within range of it.
     pub beacon: Option<Vec2>,
-    /// Camera blobs, nearest first, at most [`MAX_BLOBS`] (empty without a camera).
+    /// Camera blobs, nearest first: at most [`MAX_BLOBS`] LEDs (the nearest) and every
+    /// coloured light in sight (empty without a camera).
     pub blobs: Vec<Blob>,
     /// Colour scan: the colour each bin sees (bins at [`SensorLayout::scan_angles`]; empty
     /// without a scan).
@@ -137,6 +140,8 @@ pub struct Light {
     pub height: f32,
     /// Intensity.
     pub intensity: f32,
+    /// Colour the blob camera sees it in ([`Color::Off`]: not seen by cameras).
+    pub color: Color,
 }
 
 /// What the world tells the sensors, besides the physics.
@@ -146,16 +151,20 @@ pub struct SenseContext<'a> {
     /// Lights.
     pub lights: &'a [Light],
     /// Height of the body behind a tag.
-    pub height: &'a dyn Fn(Tag) -> f32,
+    pub height: &'a (dyn Fn(Tag) -> f32 + Sync),
     /// Colour of a tag as cameras see it (robots: their LEDs, `Off` when unlit; walls: grey).
-    pub color: &'a dyn Fn(Tag) -> Color,
+    pub color: &'a (dyn Fn(Tag) -> Color + Sync),
     /// Centre and radius of each robot (by index; unreleased robots are never asked).
     pub robots: &'a [(Vec2, f32)],
-    /// The object beacon: the target object's centre.
-    pub beacon: Option<Vec2>,
+    /// The object beacons: the movable objects' centres (the target object's when none is
+    /// movable).
+    pub beacons: &'a Beacons,
     /// Height of the tallest robot (m): beyond where a light ray rises above it, robots need
     /// not be checked.
     pub robot_height: f32,
+    /// Per light (same order as `lights`), the walls and objects by direction from it, or
+    /// empty to test every fixture.
+    pub shadows: &'a [Shadows],
 }
 
 /// The explicit occlusion rule. A ray runs from the sensor at `sensor_height` to a light at
@@ -189,12 +198,271 @@ pub fn sight_blocked(
     body_height > h(t_in).min(h(t_out))
 }
 
+/// Points (the object beacons) and a grid of them that finds the nearest to a robot in about
+/// constant time, however many there are.
+#[derive(Debug, Default, Clone)]
+pub struct Beacons {
+    points: Vec<Vec2>,
+    min: Vec2,
+    cell: f32,
+    nx: usize,
+    ny: usize,
+    /// `starts[c]..starts[c + 1]` index `order` for cell `c`.
+    starts: Vec<u32>,
+    /// Point indices sorted by cell.
+    order: Vec<u32>,
+}
+
+impl Beacons {
+    /// Sets the points (and rebuilds the grid).
+    pub fn set(&mut self, points: impl IntoIterator<Item = Vec2>) {
+        self.points.clear();
+        self.points.extend(points);
+        self.starts.clear();
+        self.order.clear();
+        let n = self.points.len();
+        if n <= 4 {
+            return;
+        }
+        let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+        for p in &self.points {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let span = (hi - lo).max(Vec2::splat(1e-3));
+        // About one point per cell.
+        self.cell = (span.x * span.y / n as f32)
+            .sqrt()
+            .max(span.x.max(span.y) / 1024.0);
+        self.min = lo;
+        self.nx = (span.x / self.cell) as usize + 1;
+        self.ny = (span.y / self.cell) as usize + 1;
+        self.starts.resize(self.nx * self.ny + 1, 0);
+        let cells: Vec<usize> = self.points.iter().map(|p| self.cell_of(*p)).collect();
+        for &c in &cells {
+            self.starts[c + 1] += 1;
+        }
+        for c in 0..self.nx * self.ny {
+            self.starts[c + 1] += self.starts[c];
+        }
+        let mut fill = self.starts.clone();
+        self.order.resize(n, 0);
+        for (i, &c) in cells.iter().enumerate() {
+            self.order[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+    }
+
+    /// The points.
+    pub fn points(&self) -> &[Vec2] {
+        &self.points
+    }
+
+    fn cell_xy(&self, p: Vec2) -> (usize, usize) {
+        let d = (p - self.min) / self.cell;
+        (
+            (d.x.max(0.0) as usize).min(self.nx - 1),
+            (d.y.max(0.0) as usize).min(self.ny - 1),
+        )
+    }
+
+    fn cell_of(&self, p: Vec2) -> usize {
+        let (x, y) = self.cell_xy(p);
+        y * self.nx + x
+    }
+
+    /// The point nearest to `p` (the first in order among equally near ones).
+    pub fn nearest(&self, p: Vec2) -> Option<Vec2> {
+        let better = |best: Option<(f32, u32)>, i: u32| {
+            let d = (self.points[i as usize] - p).length_squared();
+            match best {
+                Some((bd, bi)) if (bd, bi) <= (d, i) => best,
+                _ => Some((d, i)),
+            }
+        };
+        let mut best = None;
+        if self.starts.is_empty() {
+            for i in 0..self.points.len() {
+                best = better(best, i as u32);
+            }
+            return best.map(|(_, i)| self.points[i as usize]);
+        }
+        let (cx, cy) = self.cell_xy(p);
+        for k in 0..self.nx.max(self.ny) {
+            let (x0, x1) = (cx.saturating_sub(k), (cx + k).min(self.nx - 1));
+            let (y0, y1) = (cy.saturating_sub(k), (cy + k).min(self.ny - 1));
+            for y in y0..=y1 {
+                let edge_row = y + k == cy || y == cy + k;
+                for x in x0..=x1 {
+                    // Only the ring at Chebyshev distance k (the inside was searched).
+                    if !edge_row && x + k != cx && x != cx + k {
+                        continue;
+                    }
+                    let c = y * self.nx + x;
+                    for &i in &self.order[self.starts[c] as usize..self.starts[c + 1] as usize] {
+                        best = better(best, i);
+                    }
+                }
+            }
+            // Every point not yet seen lies in a cell beyond a side of the searched square
+            // that has cells beyond it (the border cells hold the points beyond the grid too),
+            // so at least `margin` away (less 0.1 mm for rounding).
+            let lo = self.min + Vec2::new(x0 as f32, y0 as f32) * self.cell;
+            let hi = self.min + Vec2::new(x1 as f32 + 1.0, y1 as f32 + 1.0) * self.cell;
+            let mut margin = f32::INFINITY;
+            if x0 > 0 {
+                margin = margin.min(p.x - lo.x);
+            }
+            if y0 > 0 {
+                margin = margin.min(p.y - lo.y);
+            }
+            if x1 + 1 < self.nx {
+                margin = margin.min(hi.x - p.x);
+            }
+            if y1 + 1 < self.ny {
+                margin = margin.min(hi.y - p.y);
+            }
+            if margin == f32::INFINITY {
+                break;
+            }
+            if let Some((bd, _)) = best {
+                let m = margin - 1e-4;
+                if m > 0.0 && bd < m * m {
+                    break;
+                }
+            }
+        }
+        best.map(|(_, i)| self.points[i as usize])
+    }
+}
+
+/// A pseudo-angle of `v` in [0, 4): increasing with the angle from +x, cheaper than `atan2`
+/// (the "diamond angle").
+fn diamond(v: Vec2) -> f32 {
+    let s = v.x.abs() + v.y.abs();
+    if s == 0.0 {
+        return 0.0;
+    }
+    match (v.x >= 0.0, v.y >= 0.0) {
+        (true, true) => v.y / s,
+        (false, true) => 1.0 - v.x / s,
+        (false, false) => 2.0 - v.y / s,
+        (true, false) => 3.0 + v.x / s,
+    }
+}
+
+/// The walls and objects as seen from one light: which of them lie in each direction from it
+/// (by pseudo-angle bins), and how near to the light each comes. A ray from a robot to the
+/// light can only enter a fixture whose directions include the robot's and that comes at
+/// least as near to the light as the robot is, so the light's occlusion test asks only those
+/// (the same exact ray test, on far fewer bodies).
+#[derive(Debug, Default, Clone)]
+pub struct Shadows {
+    light: Vec2,
+    bins: usize,
+    /// Fixtures the light is inside of (or next to): asked always, with their distance.
+    always: Vec<(u32, f32)>,
+    /// `starts[b]..starts[b + 1]` index `items` for bin `b`.
+    starts: Vec<u32>,
+    /// (fixture index, its nearest distance to the light).
+    items: Vec<(u32, f32)>,
+    spans: Vec<(i64, i64, f32)>,
+}
+
+/// Slack of the direction bins (pseudo-angle units, about radians), far above rounding.
+const SHADOW_SLACK: f32 = 1e-3;
+
+impl Shadows {
+    /// Rebuilds for a light at `light` and fixture boxes `boxes` (lower, upper corners), in
+    /// fixture order.
+    pub fn build(&mut self, light: Vec2, boxes: impl ExactSizeIterator<Item = (Vec2, Vec2)>) {
+        self.light = light;
+        self.always.clear();
+        self.items.clear();
+        self.spans.clear();
+        self.bins = (8 * boxes.len()).clamp(64, 1 << 16);
+        let k = self.bins as f32 / 4.0;
+        for (i, (lo, hi)) in boxes.enumerate() {
+            let near = light.clamp(lo, hi);
+            let dmin = (near - light).length();
+            let pad = Vec2::splat(1e-3);
+            if light.cmpge(lo - pad).all() && light.cmple(hi + pad).all() {
+                self.always.push((i as u32, dmin));
+                self.spans.push((1, 0, 0.0));
+                continue;
+            }
+            let pc = diamond((lo + hi) * 0.5 - light);
+            let (mut a, mut b) = (0.0f32, 0.0f32);
+            for c in [lo, hi, Vec2::new(lo.x, hi.y), Vec2::new(hi.x, lo.y)] {
+                let mut d = diamond(c - light) - pc;
+                if d >= 2.0 {
+                    d -= 4.0;
+                } else if d < -2.0 {
+                    d += 4.0;
+                }
+                a = a.min(d);
+                b = b.max(d);
+            }
+            let b0 = ((pc + a - SHADOW_SLACK) * k).floor() as i64;
+            let b1 = ((pc + b + SHADOW_SLACK) * k).floor() as i64;
+            if b1 - b0 + 1 >= self.bins as i64 {
+                self.always.push((i as u32, dmin));
+                self.spans.push((1, 0, 0.0));
+                continue;
+            }
+            self.spans.push((b0, b1, dmin));
+        }
+        self.starts.clear();
+        self.starts.resize(self.bins + 1, 0);
+        let n = self.bins as i64;
+        for &(b0, b1, _) in &self.spans {
+            for b in b0..=b1 {
+                self.starts[b.rem_euclid(n) as usize + 1] += 1;
+            }
+        }
+        for b in 0..self.bins {
+            self.starts[b + 1] += self.starts[b];
+        }
+        let mut fill = self.starts.clone();
+        self.items.resize(self.starts[self.bins] as usize, (0, 0.0));
+        for (i, &(b0, b1, d)) in self.spans.iter().enumerate() {
+            for b in b0..=b1 {
+                let c = b.rem_euclid(n) as usize;
+                self.items[fill[c] as usize] = (i as u32, d);
+                fill[c] += 1;
+            }
+        }
+    }
+
+    /// Calls `f` with each fixture (index, in no set order) that the segment from `p` to the
+    /// light, `dist` long, may enter; stops and returns true when `f` does.
+    pub fn any_toward(&self, p: Vec2, dist: f32, mut f: impl FnMut(usize) -> bool) -> bool {
+        let reach = dist + 1e-3 * (1.0 + dist);
+        for &(i, d) in &self.always {
+            if d <= reach && f(i as usize) {
+                return true;
+            }
+        }
+        let k = self.bins as f32 / 4.0;
+        let b = ((diamond(p - self.light) * k) as usize).min(self.bins - 1);
+        let (s, e) = (self.starts[b] as usize, self.starts[b + 1] as usize);
+        for &(i, d) in &self.items[s..e] {
+            if d <= reach && f(i as usize) {
+                return true;
+            }
+        }
+        false
+    }
+}
+
 /// Per-robot scratch space reused across ticks (no allocation in the hot loop).
 #[derive(Debug, Default)]
 pub struct Scratch {
     near: Vec<Nearby>,
     /// Colour scan: first hit per bin (distance, index into `near`).
     scan: Vec<(f32, usize)>,
+    /// Colour scan: the bins' ray directions.
+    rays: Vec<Vec2>,
 }
 
 /// Computes one robot's readings in place.
@@ -223,8 +491,13 @@ pub fn sense(
         rng.add(pose.y, nz.position_noise),
         rng.angle(pose.theta, nz.heading_noise),
     );
-    out.beacon = match ctx.beacon {
-        Some(b) if needs.beacon && (b - center).length() <= cfg.beacon_range => Some(Vec2::new(
+    let beacon = if needs.beacon {
+        ctx.beacons.nearest(center)
+    } else {
+        None
+    };
+    out.beacon = match beacon {
+        Some(b) if (b - center).length() <= cfg.beacon_range => Some(Vec2::new(
             rng.add(b.x, nz.beacon_noise),
             rng.add(b.y, nz.beacon_noise),
         )),
@@ -251,6 +524,10 @@ pub fn sense(
         }
         out.blobs.sort_by(|a, b| a.distance.total_cmp(&b.distance));
         out.blobs.truncate(MAX_BLOBS);
+        if ctx.lights.iter().any(|l| l.color != Color::Off) {
+            light_blobs(ctx, model, cfg, me, pose, scratch, rng, &mut out.blobs);
+            out.blobs.sort_by(|a, b| a.distance.total_cmp(&b.distance));
+        }
     }
     out.scan_color.clear();
     out.scan_range.clear();
@@ -305,13 +582,13 @@ fn light(
     cfg: &SensorConfig,
     me: Tag,
     pose: Pose,
-    scratch: &mut Scratch,
+    _scratch: &mut Scratch,
     rng: &mut noise::Gauss<'_, impl Rng>,
     out: &mut Vec<f32>,
 ) {
     let center = pose.position();
     out.resize(model.light_angles.len(), 0.0);
-    for light in ctx.lights {
+    for (li, light) in ctx.lights.iter().enumerate() {
         let to = light.position - center;
         let dist = to.length();
         let dh = light.height - model.light_height;
@@ -324,12 +601,19 @@ fn light(
         let blocks = |tag: Tag, t: f32| {
             light_blocked(model.light_height, light.height, dist, t, (ctx.height)(tag))
         };
-        // Walls and objects (few) anywhere along the ray.
-        let mut blocked = ctx.physics.fixtures().iter().any(|n| {
+        // Walls and objects anywhere along the ray (those in the robot's direction from the
+        // light, when the light's shadows are known).
+        let fixtures = ctx.physics.fixtures();
+        let hits = |k: usize| {
+            let n = &fixtures[k];
             ctx.physics
                 .ray_entry(n, center, dir, dist)
                 .is_some_and(|t| blocks(n.tag, t))
-        });
+        };
+        let mut blocked = match ctx.shadows.get(li) {
+            Some(sh) => sh.any_toward(center, dist, hits),
+            None => (0..fixtures.len()).any(hits),
+        };
         // Robots only where the ray is still below the tallest robot: a short stretch.
         if !blocked {
             let rise = (light.height - model.light_height) / dist;
@@ -339,14 +623,12 @@ fn light(
                 dist
             };
             if reach > 0.0 {
-                let mid = center + dir * (reach / 2.0);
-                ctx.physics.nearby(mid, reach / 2.0, &mut scratch.near);
-                blocked = scratch.near.iter().any(|n| {
+                // Only the grid cells along that stretch.
+                blocked = ctx.physics.robots_along(center, dir, reach, |n| {
                     n.tag != me
-                        && matches!(n.tag, Tag::Robot(_))
                         && ctx
                             .physics
-                            .ray_entry(n, center, dir, reach)
+                            .ray_entry(&n, center, dir, reach)
                             .is_some_and(|t| blocks(n.tag, t))
                 });
             }
@@ -402,7 +684,7 @@ fn blob_camera(
         // and groups mixing models are rare: the viewer's own model stands in for it.
         let led_h = model.led_height;
         let hidden = near.iter().any(|m| {
-            if m.tag == me || m.tag == n.tag {
+            if m.tag == me || m.tag == n.tag || misses(ctx, m, center, dir, dist) {
                 return false;
             }
             let Some(t_in) = ctx.physics.ray_entry(m, center, dir, dist) else {
@@ -429,6 +711,89 @@ fn blob_camera(
             bearing: rng.angle(ops::angle_of(to) - pose.theta, nz.camera_noise),
             distance: rng.distance(dist, nz.camera_distance_noise),
             color,
+        });
+    }
+}
+
+/// Whether a body surely misses the segment from `from` along `dir` (unit) for `len`: a cheap
+/// test before the exact ray cast (a robot's disc, or a wall's or object's bounding box).
+fn misses(ctx: &SenseContext<'_>, n: &Nearby, from: Vec2, dir: Vec2, len: f32) -> bool {
+    let Tag::Robot(q) = n.tag else {
+        let Some((lo, hi)) = ctx.physics.fixture_box_of(n) else {
+            return false;
+        };
+        let to = from + dir * len;
+        let m = 1e-4;
+        return from.x.max(to.x) < lo.x - m
+            || from.x.min(to.x) > hi.x + m
+            || from.y.max(to.y) < lo.y - m
+            || from.y.min(to.y) > hi.y + m;
+    };
+    let Some(&(p, r)) = ctx.robots.get(q) else {
+        return false;
+    };
+    let rel = p - from;
+    let t = rel.dot(dir);
+    let r = r * 1.001 + 1e-4;
+    t < -r || t > len + r || (rel - dir * t).length() > r
+}
+
+/// Coloured lights (a goal region of a colour, as Queiroz and MacRae's) as blobs: each light
+/// with a colour within the camera's range whose line of sight (camera height to the light's
+/// height) no taller body cuts; the distance is to its floor point. Uses the bodies the camera
+/// found near the robot (`scratch.near`).
+#[expect(clippy::too_many_arguments, reason = "private helper of `sense`")]
+fn light_blobs(
+    ctx: &SenseContext<'_>,
+    model: &RobotModel,
+    cfg: &SensorConfig,
+    me: Tag,
+    pose: Pose,
+    scratch: &Scratch,
+    rng: &mut noise::Gauss<'_, impl Rng>,
+    out: &mut Vec<Blob>,
+) {
+    let center = pose.position();
+    for light in ctx.lights {
+        if light.color == Color::Off {
+            continue;
+        }
+        let to = light.position - center;
+        let dist = to.length();
+        if dist > cfg.camera_range {
+            continue;
+        }
+        if dist > 1e-6 {
+            let dir = to / dist;
+            let hidden = scratch.near.iter().any(|m| {
+                if m.tag == me || misses(ctx, m, center, dir, dist) {
+                    return false;
+                }
+                let Some(t_in) = ctx.physics.ray_entry(m, center, dir, dist) else {
+                    return false;
+                };
+                let t_out = ctx
+                    .physics
+                    .ray_entry(m, light.position, -dir, dist)
+                    .map_or(t_in, |s| dist - s);
+                sight_blocked(
+                    model.camera_height,
+                    light.height,
+                    dist,
+                    t_in,
+                    t_out,
+                    (ctx.height)(m.tag),
+                )
+            });
+            if hidden {
+                continue;
+            }
+        }
+        let nz = &cfg.noise;
+        out.push(Blob {
+            bearing: rng.angle(ops::angle_of(to) - pose.theta, nz.camera_noise),
+            distance: rng.distance(dist, nz.camera_distance_noise),
+            color: light.color,
         });
     }
 }
@@ -490,6 +855,27 @@ fn oracle_camera(
     }
 }
 
+/// The bearings (robot frame) under which a box `(min, max)` lies as seen from `center`: the
+/// middle bearing and the half-width (rad), widened by a milliradian so that rays grazing a
+/// corner stay in; `None` without a box or from inside it.
+fn bearing_span(b: Option<(Vec2, Vec2)>, center: Vec2, heading: f32) -> Option<(f32, f32)> {
+    let (lo, hi) = b?;
+    if center.x >= lo.x && center.x <= hi.x && center.y >= lo.y && center.y <= hi.y {
+        return None;
+    }
+    let mid = ops::angle_of((lo + hi) * 0.5 - center);
+    let (mut a, mut z) = (0.0f32, 0.0f32);
+    for c in [lo, hi, Vec2::new(lo.x, hi.y), Vec2::new(hi.x, lo.y)] {
+        let o = wrap_angle(ops::angle_of(c - center) - mid);
+        a = a.min(o);
+        z = z.max(o);
+    }
+    Some((
+        wrap_angle(mid + (a + z) / 2.0 - heading),
+        (z - a) / 2.0 + 1e-3,
+    ))
+}
+
 /// The colour scan: per bin, the first body its ray meets within range. Robots are cast only
 /// in the bins their disc spans; walls and objects (few) in every bin.
 fn scan(
@@ -508,7 +894,17 @@ fn scan(
     ctx.physics.nearby(center, range, &mut scratch.near);
     scratch.scan.clear();
     scratch.scan.resize(bins, (f32::INFINITY, usize::MAX));
-    let ray = |i: usize| ops::unit(pose.theta + width * i as f32);
+    // Each bin's ray direction, computed when first needed (NaN until then).
+    scratch.rays.clear();
+    scratch.rays.resize(bins, Vec2::NAN);
+    let rays = std::cell::RefCell::new(std::mem::take(&mut scratch.rays));
+    let ray = |i: usize| {
+        let mut r = rays.borrow_mut();
+        if r[i].x.is_nan() {
+            r[i] = ops::unit(pose.theta + width * i as f32);
+        }
+        r[i]
+    };
     for (k, n) in scratch.near.iter().enumerate() {
         if n.tag == me {
             continue;
@@ -540,12 +936,25 @@ fn scan(
                 }
             }
             Tag::Wall(_) | Tag::Object(_) => {
-                for i in 0..bins {
-                    try_bin(i, &mut scratch.scan);
+                // Only the bins whose rays can meet its bounding box (all of them from inside).
+                match bearing_span(ctx.physics.fixture_box_of(n), center, pose.theta) {
+                    Some((a, half)) => {
+                        let lo = ((a - half) / width).ceil() as i64;
+                        let hi = ((a + half) / width).floor() as i64;
+                        for b in lo..=hi.min(lo + bins as i64 - 1) {
+                            try_bin(b.rem_euclid(bins as i64) as usize, &mut scratch.scan);
+                        }
+                    }
+                    None => {
+                        for i in 0..bins {
+                            try_bin(i, &mut scratch.scan);
+                        }
+                    }
                 }
             }
         }
     }
+    scratch.rays = rays.into_inner();
     let step = cfg.scan_step;
     for &(t, k) in &scratch.scan {
         if k == usize::MAX {
@@ -565,5 +974,69 @@ fn scan(
         }
         out.scan_color.push(color);
         out.scan_range.push(d.clamp(0.0, range));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The grid search finds what a scan of every point finds (the first of equally near),
+    /// for points inside and far outside the grid.
+    #[test]
+    fn nearest_beacon_matches_a_full_scan() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+        for n in [1, 3, 5, 17, 200] {
+            let pts: Vec<Vec2> = (0..n)
+                .map(|_| Vec2::new(rng.random_range(-20.0..20.0), rng.random_range(-5.0..5.0)))
+                .collect();
+            let mut b = Beacons::default();
+            b.set(pts.iter().copied());
+            for _ in 0..2000 {
+                let p = Vec2::new(rng.random_range(-40.0..40.0), rng.random_range(-30.0..30.0));
+                let mut best = (f32::MAX, 0);
+                for (i, q) in pts.iter().enumerate() {
+                    let d = (*q - p).length_squared();
+                    if d < best.0 {
+                        best = (d, i);
+                    }
+                }
+                assert_eq!(b.nearest(p), Some(pts[best.1]), "{n} points, at {p:?}");
+            }
+        }
+    }
+
+    /// The direction index offers every fixture a ray to the light enters.
+    #[test]
+    fn shadows_offer_every_box_the_ray_meets() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(4);
+        let boxes: Vec<(Vec2, Vec2)> = (0..60)
+            .map(|_| {
+                let c = Vec2::new(rng.random_range(-30.0..30.0), rng.random_range(-20.0..20.0));
+                let h = Vec2::new(rng.random_range(0.05..2.0), rng.random_range(0.05..2.0));
+                (c - h, c + h)
+            })
+            .collect();
+        let light = Vec2::new(25.0, 0.0);
+        let mut sh = Shadows::default();
+        sh.build(light, boxes.iter().copied());
+        for _ in 0..3000 {
+            let p = Vec2::new(rng.random_range(-31.0..31.0), rng.random_range(-21.0..21.0));
+            let dist = (light - p).length();
+            let mut offered = vec![false; boxes.len()];
+            sh.any_toward(p, dist, |i| {
+                offered[i] = true;
+                false
+            });
+            for (i, (lo, hi)) in boxes.iter().enumerate() {
+                // Sample the segment: a point inside the box must have been offered.
+                let meets = (0..=400).any(|k| {
+                    let q = p + (light - p) * (k as f32 / 400.0);
+                    q.cmpge(*lo).all() && q.cmple(*hi).all()
+                });
+                assert!(!meets || offered[i], "box {i} from {p:?}");
+            }
+        }
     }
 }

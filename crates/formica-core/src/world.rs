@@ -10,8 +10,12 @@ use crate::robot::RobotModel;
 use crate::scenario::{
     steps_for, Color, Placement, Scenario, ScenarioError, SensorConfig, Substeps,
 };
-use crate::sensors::{sense, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds};
+use crate::sensors::{
+    sense, Beacons, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds, Shadows,
+};
 use rand::{Rng, SeedableRng};
+use std::sync::Arc;
+use std::time::Instant;
 
 /// A static wall or obstacle box.
 #[derive(Debug, Clone, PartialEq)]
@@ -177,6 +181,72 @@ pub struct World {
     /// Arena centre and size.
     pub arena: (Vec2, Vec2),
     near: Vec<Nearby>,
+    beacons: Beacons,
+    /// Per light, the walls and objects by direction (with many fixtures only).
+    shadows: Vec<Shadows>,
+    buffers: SenseBuffers,
+    /// Threads for sensing and control (`None`: this thread only).
+    pool: Option<Arc<rayon::ThreadPool>>,
+    /// Time spent in each part of the tick, when measured ([`World::measure_time`]).
+    pub timing: Option<StepTiming>,
+    /// Moving lights: index and schedule.
+    light_paths: Vec<(usize, crate::scenario::LightSpec)>,
+}
+
+/// Wall-clock time spent in each part of [`World::step`] since timing was switched on.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepTiming {
+    /// Releases, actions, the sub-step plan and the physics steps (s).
+    pub physics_s: f64,
+    /// The neighbour index, beacons and every robot's readings (s).
+    pub sense_s: f64,
+    /// Controllers (s).
+    pub control_s: f64,
+}
+
+/// Per-tick arrays of robot facts that sensing reads (kept to save allocations).
+#[derive(Debug, Default)]
+struct SenseBuffers {
+    heights: Vec<f32>,
+    discs: Vec<(Vec2, f32)>,
+    leds: Vec<Color>,
+}
+
+/// Worlds with at least this many walls and objects index them by direction from each light.
+const SHADOWS_MIN_FIXTURES: usize = 12;
+
+/// Swarms at least this large sense and control on several threads when the caller allows
+/// it ([`threads_for`]); below, one tick is too short for the hand-over to pay.
+pub const PARALLEL_MIN_ROBOTS: usize = 400;
+
+/// The threads a world of `robots` robots should use when `available` are free for it: one
+/// below [`PARALLEL_MIN_ROBOTS`], else all of them.
+pub fn threads_for(robots: usize, available: usize) -> usize {
+    if robots < PARALLEL_MIN_ROBOTS {
+        1
+    } else {
+        available.max(1)
+    }
+}
+
+/// Runs `f` on every robot with its index, on the pool's threads if there is one. Each call
+/// touches only its own robot, so the order (and the number of threads) does not matter.
+fn for_each_robot(
+    pool: Option<&rayon::ThreadPool>,
+    robots: &mut [Robot],
+    f: impl Fn(usize, &mut Robot) + Sync + Send,
+) {
+    use rayon::prelude::*;
+    match pool {
+        Some(pool) => pool.install(|| {
+            robots
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(32)
+                .for_each(|(i, r)| f(i, r));
+        }),
+        None => robots.iter_mut().enumerate().for_each(|(i, r)| f(i, r)),
+    }
 }
 
 fn splitmix(mut z: u64) -> u64 {
@@ -282,7 +352,15 @@ impl World {
                 position: Vec2::new(l.at[0], l.at[1]),
                 height: l.height,
                 intensity: l.intensity,
+                color: l.color,
             })
+            .collect();
+        let light_paths = spec
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| !l.get_ref().path.is_empty())
+            .map(|(i, l)| (i, l.get_ref().clone()))
             .collect();
 
         // Robot groups and placement.
@@ -383,6 +461,12 @@ impl World {
             seed,
             arena: (c, Vec2::new(w, h)),
             near: Vec::new(),
+            beacons: Beacons::default(),
+            shadows: Vec::new(),
+            buffers: SenseBuffers::default(),
+            pool: None,
+            timing: None,
+            light_paths,
         };
         world.release();
         Ok(world)
@@ -398,6 +482,7 @@ impl World {
     /// [`World::step`], calling `each` after every physics step of the tick (to watch contacts
     /// between ticks).
     pub fn step_with(&mut self, mut each: impl FnMut(&World)) {
+        let t0 = self.timing.map(|_| Instant::now());
         self.release();
         self.act();
         let n = self.plan_substeps();
@@ -407,8 +492,51 @@ impl World {
         }
         self.tick += 1;
         self.time_s = self.tick as f64 / self.tick_hz;
+        let t1 = t0.map(|_| Instant::now());
+        self.move_lights();
         self.sense();
+        let t2 = t0.map(|_| Instant::now());
         self.control();
+        if let (Some(tm), Some(t0), Some(t1), Some(t2)) = (self.timing.as_mut(), t0, t1, t2) {
+            tm.physics_s += (t1 - t0).as_secs_f64();
+            tm.sense_s += (t2 - t1).as_secs_f64();
+            tm.control_s += t2.elapsed().as_secs_f64();
+        }
+    }
+
+    /// Starts (or restarts from zero) measuring the time spent in each part of the tick, in
+    /// [`World::timing`].
+    pub fn measure_time(&mut self) {
+        self.timing = Some(StepTiming::default());
+    }
+
+    /// Senses and controls on `threads` threads (1: on the caller's thread only). Results are
+    /// bit-identical for any number: each robot's readings and decision depend only on the
+    /// shared state and its own generators; the physics stays on the caller's thread.
+    pub fn set_threads(&mut self, threads: usize) -> Result<(), String> {
+        if threads <= 1 {
+            self.pool = None;
+            return Ok(());
+        }
+        if self
+            .pool
+            .as_ref()
+            .is_some_and(|p| p.current_num_threads() == threads)
+        {
+            return Ok(());
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("formica-world-{i}"))
+            .build()
+            .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        self.pool = Some(Arc::new(pool));
+        Ok(())
+    }
+
+    /// Threads sensing and control run on.
+    pub fn threads(&self) -> usize {
+        self.pool.as_ref().map_or(1, |p| p.current_num_threads())
     }
 
     /// Chooses this tick's physics steps (fixed, or enough for the fastest body or wheel
@@ -552,31 +680,70 @@ impl World {
         }
     }
 
-    /// Computes every released robot's readings.
+    /// Puts moving lights where their schedule has them now.
+    fn move_lights(&mut self) {
+        let t = self.time_s as f32;
+        for (i, spec) in &self.light_paths {
+            let [x, y] = spec.position_at(t);
+            if let Some(l) = self.lights.get_mut(*i) {
+                l.position = Vec2::new(x, y);
+            }
+        }
+    }
+
+    /// Computes every released robot's readings (in parallel over robots with a thread pool;
+    /// each robot reads only shared state and writes only its own readings, scratch and noise
+    /// generator, so the result does not depend on the number of threads).
     fn sense(&mut self) {
         self.physics.rebuild_index();
-        let beacon = self
-            .target
-            .map(|t| self.physics.center_of_mass(self.objects[t].body));
+        // With many walls and objects, each light's occlusion test asks only those in the
+        // robot's direction (the same exact test: results do not change).
+        let fixtures = self.physics.fixtures().len();
+        if fixtures >= SHADOWS_MIN_FIXTURES {
+            self.shadows
+                .resize_with(self.lights.len(), Shadows::default);
+            let physics = &self.physics;
+            for (sh, l) in self.shadows.iter_mut().zip(&self.lights) {
+                sh.build(l.position, (0..fixtures).map(|i| physics.fixture_box(i)));
+            }
+        } else {
+            self.shadows.clear();
+        }
+        // Every movable object carries a beacon (the target object when none is movable).
+        let physics = &self.physics;
+        let any_movable = self.objects.iter().any(|o| o.movable);
+        let target = self.target;
+        self.beacons.set(
+            self.objects
+                .iter()
+                .enumerate()
+                .filter(|&(i, o)| {
+                    if any_movable {
+                        o.movable
+                    } else {
+                        Some(i) == target
+                    }
+                })
+                .map(|(_, o)| physics.center_of_mass(o.body)),
+        );
         let objects = &self.objects;
         let walls = &self.walls;
         let robots = &mut self.robots;
         let groups = &self.groups;
-        let heights: Vec<f32> = robots
-            .iter()
-            .map(|r| groups[r.group].model.height)
-            .collect();
-        let physics = &self.physics;
-        let discs: Vec<(Vec2, f32)> = robots
-            .iter()
-            .map(|r| {
-                let c = r
-                    .body
-                    .map_or(r.start.position(), |b| physics.pose(b).position());
-                (c, groups[r.group].model.radius)
-            })
-            .collect();
-        let leds: Vec<Color> = robots.iter().map(|r| r.led).collect();
+        let buf = &mut self.buffers;
+        buf.heights.clear();
+        buf.discs.clear();
+        buf.leds.clear();
+        for r in robots.iter() {
+            let model = &groups[r.group].model;
+            let c = r
+                .body
+                .map_or(r.start.position(), |b| physics.pose(b).position());
+            buf.heights.push(model.height);
+            buf.discs.push((c, model.radius));
+            buf.leds.push(r.led);
+        }
+        let (heights, leds) = (&buf.heights, &buf.leds);
         let height = |t: Tag| match t {
             Tag::Wall(i) => walls[i].height,
             Tag::Object(i) => objects[i].height,
@@ -588,45 +755,51 @@ impl World {
             Tag::Robot(i) => leds[i],
         };
         let ctx = SenseContext {
-            physics: &self.physics,
+            physics,
             lights: &self.lights,
             height: &height,
             color: &color,
-            robots: &discs,
-            beacon,
+            robots: &buf.discs,
+            beacons: &self.beacons,
             robot_height: groups.iter().map(|g| g.model.height).fold(0.0, f32::max),
+            shadows: &self.shadows,
         };
+        let specs: Vec<(&RobotModel, SensorNeeds, &SensorConfig)> = groups
+            .iter()
+            .map(|g| (&g.model, g.factory.needs, &g.sensors))
+            .collect();
         let time = self.time_s as f32;
-        for (i, r) in robots.iter_mut().enumerate() {
-            let Some(body) = r.body else { continue };
-            let g = &groups[r.group];
-            let pose = self.physics.pose(body);
+        for_each_robot(self.pool.as_deref(), robots, |i, r| {
+            let Some(body) = r.body else { return };
+            let (model, needs, cfg) = specs[r.group];
+            let pose = physics.pose(body);
             r.readings.time_s = time;
             r.readings.attached = r.attached.is_some();
             sense(
                 &ctx,
-                &g.model,
-                g.factory.needs,
-                &g.sensors,
+                model,
+                needs,
+                cfg,
                 Tag::Robot(i),
                 pose,
                 &mut r.scratch,
                 &mut r.sense_rng,
                 &mut r.readings,
             );
-        }
+        });
     }
 
     /// Runs every released robot's controller, then each group's batch controller.
     fn control(&mut self) {
         let groups = &mut self.groups;
-        for r in &mut self.robots {
-            if r.body.is_none() || groups[r.group].batch.is_some() {
-                continue;
+        let batched: Vec<bool> = groups.iter().map(|g| g.batch.is_some()).collect();
+        for_each_robot(self.pool.as_deref(), &mut self.robots, |_, r| {
+            if r.body.is_none() || batched[r.group] {
+                return;
             }
             r.action = r.controller.step(&r.readings, &mut r.rng);
             r.state = r.controller.state();
-        }
+        });
         for (g, group) in groups.iter_mut().enumerate() {
             let Some(batch) = group.batch.as_mut() else {
                 continue;

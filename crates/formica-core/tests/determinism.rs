@@ -16,6 +16,16 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 
 /// FNV-1a of the result (wall time zeroed) and of every robot's trajectory, and the result.
 fn digest_of(sc: &Scenario, seed: u64, duration_s: Option<f32>) -> (u64, String) {
+    digest_threads(sc, seed, duration_s, 1)
+}
+
+/// [`digest_of`] with sensing and control on `threads` threads.
+fn digest_threads(
+    sc: &Scenario,
+    seed: u64,
+    duration_s: Option<f32>,
+    threads: usize,
+) -> (u64, String) {
     let opts = RunOptions {
         overrides: Overrides {
             seed: Some(seed),
@@ -24,6 +34,7 @@ fn digest_of(sc: &Scenario, seed: u64, duration_s: Option<f32>) -> (u64, String)
         },
         record: true,
         robot_every: 1,
+        threads,
     };
     let (mut result, traj) = run(sc, &opts).unwrap();
     result.wall_time_s = 0.0;
@@ -129,4 +140,50 @@ fn golden_digest_fill_transport() {
         GOLDEN_FILL_TRANSPORT,
         digest_of(&sc, 42, Some(30.0)),
     );
+}
+
+// The same golden digests with sensing and control on two threads: bit-identical.
+
+#[test]
+fn golden_digests_on_two_threads() {
+    let sc = shipped("seed-transport.toml");
+    check_golden(
+        "occlusion, 2 threads",
+        "GOLDEN_OCCLUSION",
+        GOLDEN_OCCLUSION,
+        digest_threads(&sc, 42, Some(30.0), 2),
+    );
+    let sc = shipped("fill-transport-u.toml");
+    check_golden(
+        "fill-transport, 2 threads",
+        "GOLDEN_FILL_TRANSPORT",
+        GOLDEN_FILL_TRANSPORT,
+        digest_threads(&sc, 42, Some(30.0), 2),
+    );
+    let sc = shipped("seed-fill-u.toml");
+    check_golden(
+        "filling, 2 threads",
+        "GOLDEN_FILLING",
+        GOLDEN_FILLING,
+        digest_threads(&sc, 42, Some(30.0), 2),
+    );
+}
+
+/// A swarm large enough for the work to be split between threads (the benchmark's transport
+/// and fill-transport worlds): the same bits on 1, 2 and 3 threads.
+#[test]
+fn large_swarms_same_bits_on_any_thread_count() {
+    use formica::bench::Workload;
+    for (workload, n) in [(Workload::Transport, 200), (Workload::FillTransport, 150)] {
+        let sc = workload.scenario(n).unwrap();
+        let one = digest_threads(&sc, 3, Some(8.0), 1);
+        for threads in [2, 3] {
+            assert_eq!(
+                digest_threads(&sc, 3, Some(8.0), threads),
+                one,
+                "{} with {n} robots on {threads} threads",
+                workload.name()
+            );
+        }
+    }
 }

@@ -102,9 +102,12 @@
     ctx.fillRect(0, 0, canvas.width, canvas.height);
 
     // Goal radius and lights.
-    const goal = s.lights.find((l) => l.goal);
+    // Lights move on a schedule (`path`): the state has where they are now.
+    const lightAt = (l, i) => (st.lights && st.lights[i]) || l.at;
+    const gi = s.lights.findIndex((l) => l.goal);
+    const goal = gi >= 0 ? s.lights[gi] : undefined;
     if (goal && s.goal_radius) {
-      const [gx, gy] = P(goal.at);
+      const [gx, gy] = P(lightAt(goal, gi));
       ctx.beginPath();
       ctx.arc(gx, gy, s.goal_radius * px, 0, 2 * Math.PI);
       ctx.fillStyle = '#fff4be';
@@ -128,8 +131,8 @@
       ctx.fill('nonzero');
     }
 
-    for (const l of s.lights) {
-      const [x, y] = P(l.at);
+    for (const [i, l] of s.lights.entries()) {
+      const [x, y] = P(lightAt(l, i));
       ctx.beginPath();
       ctx.arc(x, y, 0.05 * px, 0, 2 * Math.PI);
       ctx.fillStyle = l.goal ? '#fac800' : '#e0c060';

@@ -253,6 +253,8 @@ struct StateOut<'a> {
     goal_distance_m: Option<f64>,
     object_path_m: f64,
     states: BTreeMap<&'static str, usize>,
+    /// Where each light is now (a light with a `path` moves).
+    lights: Vec<[f32; 2]>,
     objects: Vec<ObjectOut>,
     path: Vec<[f32; 2]>,
     robots: Vec<RobotOut>,
@@ -318,6 +320,11 @@ impl Sim {
             },
             record: false,
             robot_every: 1,
+            // Large swarms sense and control on every core (the same results).
+            threads: formica::world::threads_for(
+                sc.robot_count(),
+                std::thread::available_parallelism().map_or(1, |n| n.get()),
+            ),
         };
         Run::new(sc, &opts)
     }
@@ -577,6 +584,7 @@ impl Sim {
             goal_distance_m: result.goal_distance_m,
             object_path_m: result.object_path_m,
             states,
+            lights: w.lights.iter().map(|l| pt(l.position)).collect(),
             objects: (0..w.objects.len())
                 .map(|i| {
                     let p = w.object_pose(i);

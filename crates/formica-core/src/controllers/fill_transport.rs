@@ -35,6 +35,8 @@
 //!
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
+//! With `relays = true` (sub-goal relays, [`relay`](super::relay)) a pusher that relays shows
+//! the goal's colour instead (state `relay`).
 
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
 use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
@@ -134,6 +136,9 @@ pub struct Params {
     /// followed the edge during its lap; the pusher's `object_reach` is at least this. Default
     /// 0.12.
     pub reach_margin: f32,
+    /// Sub-goal relays for the pushers (`push.relays`, see [`relay`](super::relay)); the
+    /// attached robots' blue LEDs count as the object. Default false.
+    pub relays: bool,
 }
 
 impl Default for Params {
@@ -161,6 +166,7 @@ impl Default for Params {
             comply_s: 2.0,
             comply_gain: 1.0,
             comply_push_deg: 0.0,
+            relays: false,
         }
     }
 }
@@ -170,7 +176,8 @@ pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
-    let p: Params = parse_params(params)?;
+    let mut p: Params = parse_params(params)?;
+    p.push.relays |= p.relays;
     p.fill.validate().map_err(|e| format!("fill: {e}"))?;
     p.push.validate().map_err(|e| format!("push: {e}"))?;
     let positive = |x: f32| x > 0.0 && x.is_finite();
@@ -345,9 +352,11 @@ pub struct FillTransport {
 impl FillTransport {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> FillTransport {
+        let mut pusher = Occlusion::new(p.push, layout);
+        pusher.add_relay_object_color(Color::Blue);
         FillTransport {
             filler: Filler::new(p.fill, layout),
-            pusher: Occlusion::new(p.push, layout),
+            pusher,
             laps: p.laps,
             pushing: false,
             occluded_within: p.occluded_within_deg.to_radians(),
@@ -552,7 +561,9 @@ impl Controller for FillTransport {
             self.pusher.veto_hidden();
         }
         let act = self.pusher.step(&self.seen, rng);
-        let led = if self.pusher.is_pushing() {
+        let led = if self.pusher.is_relay() {
+            act.led
+        } else if self.pusher.is_pushing() {
             Color::Red
         } else {
             Color::Yellow

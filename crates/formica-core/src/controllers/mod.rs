@@ -9,6 +9,7 @@ pub mod fill_transport;
 pub mod filling;
 pub mod occlusion;
 pub mod random_walk;
+pub mod relay;
 
 /// Registers the built-in controllers under their scenario names.
 pub fn register(registry: &mut Registry) -> Result<(), RegistryError> {

@@ -46,8 +46,17 @@
 //! Positions are noisy: progress (the escape time-outs) is measured on a smoothed position.
 //!
 //! Set `occluder_angle_deg = 180` and `push_goal_bias_deg = 0` for Chen's rule alone.
+//!
+//! **Relays** (`relays = true`, off by default; Queiroz and MacRae 2024, see
+//! [`relay`](super::relay)): the goal is then what the blob camera shows in the goal's colour
+//! (`relay.goal_color`; the goal light needs that `color`), the real goal or a relay, instead
+//! of the light ring; robots approach the object only with both the object (in the colour
+//! scan) and a goal in sight; and a free robot that loses the goal where an obstacle, not the
+//! object, hides it stops and shows the goal's colour (state `relay`) until the object comes
+//! near or it sees the real goal light.
 
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
+use crate::controllers::relay::{self, Relay};
 use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
 use crate::scenario::Color;
@@ -153,6 +162,12 @@ pub struct Params {
     /// so far) and the object's direction for a hidden goal to count as hidden *by the object*
     /// (a neighbour right in front also hides it). 180 switches the check off. Default 30.
     pub occluder_angle_deg: f32,
+    /// Sub-goal relays (Queiroz and MacRae 2024): the goal is what the camera shows in
+    /// `relay.goal_color`, and robots that lose it behind an obstacle become relays. Default
+    /// false.
+    pub relays: bool,
+    /// Relay parameters (used with `relays = true`).
+    pub relay: relay::Params,
 }
 
 impl Default for Params {
@@ -185,6 +200,8 @@ impl Default for Params {
             reverse_s: 20.0,
             object_reach: 0.6,
             occluder_angle_deg: 30.0,
+            relays: false,
+            relay: relay::Params::default(),
         }
     }
 }
@@ -235,6 +252,14 @@ impl Params {
             ("push_goal_bias_deg", self.push_goal_bias_deg),
         ];
         crate::controller::check_params(&positive, &non_negative)?;
+        self.relay.validate()?;
+        if self.relays && self.relay.goal_color == self.object_color {
+            return Err(format!(
+                "relay.goal_color and object_color are both {}: robots could not tell the \
+                 goal from the object",
+                self.object_color.name()
+            ));
+        }
         if self.dark_contrast > self.lit_contrast {
             return Err(format!(
                 "`dark_contrast` ({}) must not exceed `lit_contrast` ({})",
@@ -253,6 +278,8 @@ enum State {
     Circle,
     Push,
     Escape,
+    /// Standing in for the goal (relays).
+    Relay,
 }
 
 /// Where the object's surface is, as far as this robot can tell.
@@ -302,12 +329,18 @@ pub struct Occlusion {
     /// Random-walk turn while searching: rate and seconds left.
     walk_turn: f32,
     walk_left_s: f32,
+    /// The relay behaviour, with `relays = true`.
+    relay: Option<Relay>,
 }
 
 impl Occlusion {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> Occlusion {
+        let relay = p
+            .relays
+            .then(|| Relay::new(p.relay.clone(), layout, vec![p.object_color]));
         Occlusion {
+            relay,
             p,
             layout: layout.clone(),
             state: State::Approach,
@@ -357,9 +390,24 @@ impl Occlusion {
             proximity: true,
             light: true,
             beacon: p.perception == Perception::Beacon,
-            camera: false,
-            scan: p.perception == Perception::Camera,
+            camera: p.relays,
+            scan: p.perception == Perception::Camera || p.relays,
         }
+    }
+
+    /// With relays: colours that also count as the object when the relay rule looks for it
+    /// in the scan (a pseudo object's attached robots).
+    pub fn add_relay_object_color(&mut self, c: Color) {
+        if let Some(relay) = self.relay.take() {
+            let mut colors = vec![self.p.object_color, c];
+            colors.dedup();
+            self.relay = Some(Relay::new(relay.params().clone(), &self.layout, colors));
+        }
+    }
+
+    /// Whether the robot is a relay now.
+    pub fn is_relay(&self) -> bool {
+        self.state == State::Relay
     }
 
     /// Its parameters.
@@ -513,15 +561,21 @@ impl Occlusion {
     /// Whether the goal has been hidden by the object for `hidden_s`, and visible for
     /// `visible_s`. `object` is the object's bearing (robot frame).
     fn goal_hidden(&mut self, r: &Readings, object: Option<f32>) -> (bool, bool) {
-        let contrast = light_contrast(&r.light);
-        self.goal_lit = if self.goal_lit {
-            contrast >= self.p.dark_contrast
-        } else {
-            contrast > self.p.lit_contrast
-        };
         let veto = std::mem::take(&mut self.veto_hidden);
-        let dark = !r.light.is_empty() && !self.goal_lit && !veto;
-        if self.goal_lit {
+        let dark = if let Some(relay) = &self.relay {
+            // Relays: the goal is what the camera shows in the goal's colour.
+            self.goal_lit = relay.goal_seen();
+            !self.goal_lit && !veto
+        } else {
+            let contrast = light_contrast(&r.light);
+            self.goal_lit = if self.goal_lit {
+                contrast >= self.p.dark_contrast
+            } else {
+                contrast > self.p.lit_contrast
+            };
+            !r.light.is_empty() && !self.goal_lit && !veto
+        };
+        if self.goal_lit && self.relay.is_none() {
             if let Some(b) = light_bearing(&r.light, &self.layout.light_angles) {
                 let g = wrap_angle(b + r.pose.theta);
                 self.goal_dir = Some(g);
@@ -555,6 +609,9 @@ impl Occlusion {
     /// World-frame direction of the goal from here: toward the triangulated goal once the
     /// bearings seen so far pin it down, otherwise the last bearing seen.
     pub fn goal_direction(&self, r: &Readings) -> Option<f32> {
+        if let Some(relay) = &self.relay {
+            return relay.goal_direction(r);
+        }
         let here = r.pose.position();
         match self.goal_fix.estimate() {
             Some(g) if (g - here).length() > 0.05 => {
@@ -762,8 +819,37 @@ impl Controller for Occlusion {
             Perception::Beacon => self.centre_bearing(r).map(|(b, _)| b),
             Perception::Camera => surface.map(|s| s.bearing),
         };
+        if let Some(relay) = self.relay.as_mut() {
+            relay.observe(r, &self.layout);
+        }
         let (hidden, visible) = self.goal_hidden(r, object_dir);
         let now = r.time_s;
+        if let Some(relay) = self.relay.as_mut() {
+            // Only a wandering robot relays (one circling or pushing loses the goal behind
+            // the object, one approaching sees both).
+            let free = self.state == State::Search;
+            let real_goal = light_contrast(&r.light) > self.p.lit_contrast;
+            if relay.update(r, free, real_goal, rng) {
+                self.set_state(State::Relay, r);
+                self.last_s = now;
+                return self.twist(0.0, 0.0).with_led(self.p.relay.goal_color);
+            }
+            if self.state == State::Relay {
+                self.set_state(State::Search, r);
+            }
+        }
+        // Relays: a free robot approaches the object only with both it and a goal in sight;
+        // otherwise it wanders, keeping clear of everything (the object included).
+        let gated = self.relay.as_ref().is_some_and(|rl| !rl.gate());
+        let wander_other = if gated {
+            r.proximity
+                .iter()
+                .zip(&self.layout.proximity_angles)
+                .filter(|(v, _)| **v > NOISE_FLOOR)
+                .fold(Vec2::ZERO, |acc, (v, a)| acc + ops::unit(*a) * *v)
+        } else {
+            other
+        };
         // State changes re-run the step in the new state; a few at most per tick.
         let mut hops = 0;
         let act = loop {
@@ -774,13 +860,15 @@ impl Controller for Occlusion {
                 break self.twist(-self.p.approach_speed, 0.0);
             }
             match self.state {
-                State::Search | State::Approach => {
+                State::Search | State::Approach | State::Relay => {
                     let target = match (self.p.perception, surface) {
+                        _ if gated => None,
                         (Perception::Camera, Some(s)) => Some(s.bearing),
                         (Perception::Camera, None) => None,
                         (Perception::Beacon, _) => self.centre_bearing(r).map(|(b, _)| b),
                     };
-                    if let Some(s) = surface.filter(|s| s.gap <= self.p.contact_gap) {
+                    let contact = surface.filter(|s| !gated && s.gap <= self.p.contact_gap);
+                    if let Some(s) = contact {
                         self.side = self.choose_side(r, s.bearing);
                         self.reverse_until = f32::NEG_INFINITY;
                         self.blocked_since = None;
@@ -797,7 +885,7 @@ impl Controller for Occlusion {
                         self.escape(r, rng);
                         continue;
                     }
-                    break self.approach(r, rng, target, other);
+                    break self.approach(r, rng, target, wander_other);
                 }
                 State::Circle => {
                     let Some(s) = surface else {
@@ -911,6 +999,7 @@ impl Controller for Occlusion {
             State::Circle => Color::Blue,
             State::Escape => Color::Yellow,
             State::Search | State::Approach => Color::White,
+            State::Relay => self.p.relay.goal_color,
         };
         act.with_led(led)
     }
@@ -922,6 +1011,7 @@ impl Controller for Occlusion {
             State::Circle => "circle",
             State::Push => "push",
             State::Escape => "escape",
+            State::Relay => "relay",
         }
     }
 }

@@ -1,0 +1,217 @@
+//! Sub-goal relays (issue 14) in the shipped Queiroz & MacRae maps, judged from the ground
+//! truth the controllers never see; and moving goals.
+
+mod common;
+
+use common::{shipped, shipped_text, start};
+use formica::geometry::Vec2;
+use formica::visibility::crosses;
+use formica::Scenario;
+
+/// One relay episode: robot, where and when it began, and the object's centre distance from
+/// the robot each tick while it lasted.
+struct Episode {
+    robot: usize,
+    at: Vec2,
+    begin_s: f64,
+    /// (time, object centre distance) per tick while relaying.
+    near: Vec<(f64, f32)>,
+    ended: bool,
+}
+
+/// Runs `sc` with `seed` for at most `max_s` (or until it ends) and collects relay episodes.
+fn episodes(sc: &Scenario, seed: u64, max_s: f64) -> (Vec<Episode>, Option<String>) {
+    let mut run = start(sc, seed);
+    let mut open: Vec<Option<usize>> = vec![None; run.world.robots.len()];
+    let mut out: Vec<Episode> = Vec::new();
+    loop {
+        let o = run.step();
+        let w = &run.world;
+        let c = w.object_center(w.target.unwrap());
+        for (i, r) in w.robots.iter().enumerate() {
+            let p = w.robot_pose(i).position();
+            match (r.state == "relay", open[i]) {
+                (true, None) => {
+                    open[i] = Some(out.len());
+                    out.push(Episode {
+                        robot: i,
+                        at: p,
+                        begin_s: w.time_s,
+                        near: vec![(w.time_s, (c - p).length())],
+                        ended: false,
+                    });
+                }
+                (true, Some(k)) => out[k].near.push((w.time_s, (c - p).length())),
+                (false, Some(k)) => {
+                    out[k].ended = true;
+                    open[i] = None;
+                }
+                (false, None) => {}
+            }
+        }
+        if let Some(o) = o {
+            return (out, Some(format!("{o:?}")));
+        }
+        if w.time_s >= max_s {
+            return (out, None);
+        }
+    }
+}
+
+fn rect(c: Vec2, size: Vec2, grow: f32) -> Vec<[f64; 2]> {
+    let (hx, hy) = (
+        f64::from(size.x / 2.0 + grow),
+        f64::from(size.y / 2.0 + grow),
+    );
+    let (x, y) = (f64::from(c.x), f64::from(c.y));
+    vec![
+        [x - hx, y - hy],
+        [x + hx, y - hy],
+        [x + hx, y + hy],
+        [x - hx, y + hy],
+    ]
+}
+
+#[test]
+fn a_relay_forms_where_an_obstacle_hides_the_goal() {
+    let sc = shipped("qm-middle.toml");
+    let mut firsts = 0;
+    for seed in 1..=3 {
+        let (eps, _) = episodes(&sc, seed, 300.0);
+        assert!(!eps.is_empty(), "seed {seed}: no relay formed in 300 s");
+        let run = start(&sc, seed);
+        let w = &run.world;
+        let goal = w.goal().unwrap();
+        let wall = &w.walls[4];
+        let grown = rect(wall.center, wall.size, 0.1);
+        // The first relay of a run can only have lost the real goal (no other goal colour is
+        // shown yet): the obstacle stands between it and the goal.
+        let first = &eps[0];
+        let p = |v: Vec2| [f64::from(v.x), f64::from(v.y)];
+        assert!(
+            crosses(&grown, p(first.at), p(goal)),
+            "seed {seed}: robot {} relayed at ({:.2}, {:.2}) at {:.1} s with a clear view of \
+             the goal",
+            first.robot,
+            first.at.x,
+            first.at.y,
+            first.begin_s
+        );
+        firsts += 1;
+    }
+    assert_eq!(firsts, 3);
+}
+
+#[test]
+fn a_relay_dissolves_when_the_object_arrives() {
+    // The 0.4 m square: its surface is 0.2 to 0.283 m from its centre, a Khepera IV's 0.07 m
+    // from its own. A relay leaves when its colour scan puts the object within
+    // `relay.release_m` (0.1 m) of its body: with the centres 0.5 m apart or less (a gap of at
+    // most 0.23 m, scan bins and noise included). With the centres within 0.32 m (a gap under
+    // 0.05 m) no relay may stay on for more than 2 s.
+    let sc = shipped("qm-middle.toml");
+    let mut arrivals = 0;
+    for seed in 1..=4 {
+        let (eps, _) = episodes(&sc, seed, 1200.0);
+        for e in &eps {
+            let (_, last) = *e.near.last().unwrap();
+            if e.ended && last <= 0.5 {
+                arrivals += 1;
+            }
+            if let Some(k) = e.near.iter().position(|(_, d)| *d <= 0.32) {
+                let (t0, _) = e.near[k];
+                let (t_last, _) = *e.near.last().unwrap();
+                assert!(
+                    e.ended && t_last - t0 <= 2.0,
+                    "seed {seed}: robot {} still relays {:.1} s after the object reached it",
+                    e.robot,
+                    t_last - t0
+                );
+            }
+        }
+    }
+    assert!(
+        arrivals > 0,
+        "no relay ended with the object at it in 4 runs"
+    );
+}
+
+#[test]
+fn no_relay_forms_in_the_open_map() {
+    let sc = shipped("qm-open.toml");
+    for seed in 1..=3 {
+        let (eps, outcome) = episodes(&sc, seed, 1200.0);
+        assert!(
+            eps.is_empty(),
+            "seed {seed}: {} relays in the open map, the first robot {} at {:.1} s",
+            eps.len(),
+            eps[0].robot,
+            eps[0].begin_s
+        );
+        assert_eq!(outcome.as_deref(), Some("Success"), "seed {seed}");
+    }
+}
+
+#[test]
+fn relays_off_by_default_and_in_the_viewer_state() {
+    // Default off: the middle map without `relays` forms none.
+    let text = shipped_text("qm-middle.toml")
+        .replace("params = { relays = true }", "params = { relays = false }");
+    let sc = Scenario::parse(&text, "qm-middle.toml").unwrap();
+    let (eps, _) = episodes(&sc, 1, 120.0);
+    assert!(eps.is_empty());
+}
+
+#[test]
+fn a_moving_goal_follows_its_schedule() {
+    let sc = shipped("qm-moving-goal.toml");
+    let mut run = start(&sc, 1);
+    let g0 = run.world.goal().unwrap();
+    assert_eq!((g0.x, g0.y), (1.0, 1.0));
+    while run.world.time_s < 90.0 - 1e-9 {
+        if run.step().is_some() {
+            break;
+        }
+    }
+    if run.world.time_s >= 90.0 - 1e-9 {
+        // Halfway from (1, 1) at 30 s to (1, -1) at 150 s.
+        let g = run.world.goal().unwrap();
+        assert!((g.x - 1.0).abs() < 1e-4 && g.y.abs() < 1e-3, "{g:?}");
+    }
+    let spec = &sc.spec.lights[0];
+    let at = |t: f32| spec.get_ref().position_at(t);
+    assert_eq!(at(0.0), [1.0, 1.0]);
+    assert_eq!(at(30.0), [1.0, 1.0]);
+    assert_eq!(at(1000.0), [1.0, -1.0]);
+}
+
+#[test]
+fn a_bad_goal_schedule_is_refused_at_its_key() {
+    let base = shipped_text("qm-moving-goal.toml");
+    let back = base.replace(
+        "path = [[30.0, 1.0, 1.0], [150.0, 1.0, -1.0]]",
+        "path = [[30.0, 1.0, 1.0], [20.0, 1.0, -1.0]]",
+    );
+    let e = Scenario::parse(&back, "m.toml").unwrap_err().to_string();
+    assert!(
+        e.contains("lights[0].path[1]") && e.contains("increasing"),
+        "{e}"
+    );
+    let far = base.replace(
+        "path = [[30.0, 1.0, 1.0], [150.0, 1.0, -1.0]]",
+        "path = [[30.0, 1.0, 1.0], [150.0, 1.0, -1.0e9]]",
+    );
+    let e = Scenario::parse(&far, "m.toml").unwrap_err().to_string();
+    assert!(e.contains("lights[0].path[1][2]"), "{e}");
+    let late = base.replace(
+        "path = [[30.0, 1.0, 1.0], [150.0, 1.0, -1.0]]",
+        "path = [[30.0, 1.0, 1.0], [1.0e9, 1.0, -1.0]]",
+    );
+    let e = Scenario::parse(&late, "m.toml").unwrap_err().to_string();
+    assert!(e.contains("lights[0].path[1][0]"), "{e}");
+    let short = base.replace(
+        "path = [[30.0, 1.0, 1.0], [150.0, 1.0, -1.0]]",
+        "path = [[30.0, 1.0]]",
+    );
+    assert!(Scenario::parse(&short, "m.toml").is_err());
+}
