@@ -635,9 +635,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
     );
     if fill {
         head.extend(
-            ["robots attached", "convexity after", "cavity filled"]
-                .iter()
-                .map(|s| s.to_string()),
+            [
+                "robots attached",
+                "convexity before",
+                "convexity after",
+                "cavity filled",
+                "cavity robots / capacity",
+                "runs without false stops",
+            ]
+            .iter()
+            .map(|s| s.to_string()),
         );
     }
     head.extend(extras.iter().map(|f| format!("`{f}` (mean)")));
@@ -669,8 +676,24 @@ pub fn main(a: Args) -> Result<(), CliError> {
         cells.push(fmt_opt(efficiency(&refs).map(|e| e.y), 3));
         if fill {
             cells.push(fmt_opt(mean(&|r| r.object_robots.map(|n| n as f64)), 1));
+            cells.push(fmt_opt(mean(&|r| r.convexity_before), 3));
             cells.push(fmt_opt(mean(&|r| r.convexity_after), 3));
             cells.push(fmt_opt(mean(&|r| r.cavity_filled), 3));
+            // Mean robots in the cavity over its capacity (the same test counts both).
+            let robots = mean(&|r| r.cavity_robots.map(|n| n as f64));
+            let cap = mean(&|r| r.cavity_capacity.map(|n| n as f64));
+            cells.push(match (robots, cap) {
+                (Some(n), Some(c)) if c > 0.0 => format!("{n:.1} / {c:.0} = {:.2}", n / c),
+                (Some(n), Some(c)) => format!("{n:.1} / {c:.0}"),
+                _ => "–".to_string(),
+            });
+            let judged = res.iter().filter(|r| r.false_stops.is_some()).count();
+            let clean = res.iter().filter(|r| r.false_stops == Some(0)).count();
+            cells.push(if judged > 0 {
+                format!("{clean} / {judged}")
+            } else {
+                "–".to_string()
+            });
         }
         for field in &extras {
             let xs = extra_values(res.iter(), field);

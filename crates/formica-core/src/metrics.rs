@@ -155,13 +155,31 @@ fn inside_depth(hull: &[Vec2], p: Vec2) -> f32 {
     depth
 }
 
-/// Whether a point lies in the cavity of object `obj` (inside its hull, outside the object).
-fn in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2) -> bool {
-    inside_depth(hull, p) >= 0.0 && !world.physics.contains(world.objects[obj].body, p)
+/// Slack (m) of [`disc_in_cavity`]: how far a disc may reach past the hull or into the object
+/// and still count (the contact solver lets bodies overlap by a millimetre or so).
+pub const CAVITY_SLACK_M: f32 = 0.002;
+
+/// Whether a disc of `radius` centred at `p` lies in the cavity of object `obj`: inside the
+/// object's hull and not overlapping the object, each within [`CAVITY_SLACK_M`]. The one test
+/// of both `cavity_capacity` (lattice discs) and `cavity_robots` (attached robots).
+pub fn disc_in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2, radius: f32) -> bool {
+    let r = radius - CAVITY_SLACK_M;
+    if inside_depth(hull, p) < r {
+        return false;
+    }
+    let body = world.objects[obj].body;
+    // `nearest_point` does not tell inside from outside for compound shapes.
+    if world.physics.contains(body, p) {
+        return false;
+    }
+    let (q, _) = world.physics.nearest_point(body, p);
+    (q - p).length() >= r
 }
 
 /// How many robot discs of `radius` fit in the cavity of object `obj`: discs inside the
-/// object's hull, overlapping neither the object nor each other. Computed by lattice packing
+/// object's hull, overlapping neither the object nor each other ([`disc_in_cavity`], the test
+/// by which `cavity_robots` counts attached robots, so that the two count the same thing).
+/// Computed by lattice packing
 /// ([`pack_discs`]): hexagonal and square lattices of spacing `2 radius`, laid at 12 rotations
 /// and 16 offsets, and laid along every edge of the object and its hull with the first row
 /// touching that edge; the best count is kept. A lower bound of the best packing (the tests
@@ -186,18 +204,7 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
         let per_disc = 2.0 * 3f64.sqrt() * f64::from(radius) * f64::from(radius);
         return (cavity / per_disc).floor() as usize;
     }
-    let body = world.objects[obj].body;
-    let fits = |p: Vec2| {
-        if inside_depth(&hull, p) < radius {
-            return false;
-        }
-        // `nearest_point` does not tell inside from outside for compound shapes.
-        if world.physics.contains(body, p) {
-            return false;
-        }
-        let (q, _) = world.physics.nearest_point(body, p);
-        (q - p).length() >= radius
-    };
+    let fits = |p: Vec2| disc_in_cavity(world, obj, &hull, p, radius);
     let mut edges: Vec<(Vec2, Vec2)> = Vec::new();
     for ring in world
         .object_outlines(obj)
@@ -309,16 +316,16 @@ pub fn pack_discs(
     best
 }
 
-/// Attached robots of object `obj` whose centres lie in its cavity, and those outside its hull
-/// (false stops): more than half outside, their centre beyond the hull by more than half their
+/// Attached robots of object `obj` whose discs lie in its cavity (inside the hull, by the test
+/// [`disc_in_cavity`] that `cavity_capacity` packs with), and those outside its hull (false
+/// stops): more than half outside, their centre beyond the hull by more than half their
 /// radius. A robot touching the outside of the hull (the seed's false stop against a U's back
-/// wall) is one; a robot astride the mouth of a cavity, its centre just past the hull's edge,
-/// is neither.
+/// wall) is one; a robot astride the mouth of a cavity is neither.
 pub fn classify_attached(world: &World, obj: usize) -> (usize, usize) {
     let hull = object_hull(world, obj);
     let (mut inside, mut outside) = (0, 0);
     for (c, r) in attached_discs(world, obj) {
-        if in_cavity(world, obj, &hull, c) {
+        if disc_in_cavity(world, obj, &hull, c, r) {
             inside += 1;
         } else if inside_depth(&hull, c) < -0.5 * r {
             outside += 1;

@@ -22,8 +22,16 @@
 //! as the object out to the farthest distance from the centre at which the robot followed the
 //! edge, plus `reach_margin` (a fixed `object_reach` too small for the pseudo object makes
 //! pushers near its ends take it for an obstacle, lose it and crowd). `pusher = "edge"` swaps
-//! the occlusion controller for the filler's own edge following. Attached robots' wheels exert
-//! no force; the pseudo object is moved by the pushers only.
+//! the occlusion controller for the filler's own edge following.
+//!
+//! **Attached robots keep their wheels on the floor** (issue 10): braking with locked wheels
+//! they would hold the pseudo object with up to their drive force each. By default
+//! (`attached = "assist"`) an attached robot is compliant: it estimates its own velocity and
+//! turn rate from its positioning sensor (least squares over `comply_s`) and commands them, so
+//! that along its heading it rolls with the pseudo object instead of braking (sideways its
+//! wheels still skid, as real wheels would); and while the pseudo object moves toward the
+//! goal's last seen direction it adds `attached_push` of its pushing speed toward the goal.
+//! It uses its own readings only (pose, light), never the object's true motion.
 //!
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
@@ -33,11 +41,12 @@
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
 use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
 use crate::controllers::occlusion::{self, light_contrast, Occlusion};
-use crate::geometry::wrap_angle;
+use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use serde::{Deserialize, Serialize};
+use std::f32::consts::PI;
 
 /// Which behaviour pushes once filling is over.
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
@@ -51,6 +60,26 @@ pub enum Pusher {
     /// with the stop test off; where the goal is hidden it pushes, aiming halfway between the
     /// object's centre and the goal's last seen direction.
     Edge,
+}
+
+/// What an attached robot does with its wheels (they stay on the floor, issue 10).
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AttachedDrive {
+    /// Wheels locked (zero wheel speed): brakes with up to the drive force.
+    Brake,
+    /// Drives along its heading toward the goal's last seen direction (`attached_push`).
+    Push,
+    /// Rolls with the pseudo object: commands the forward speed and turn rate it measures for
+    /// itself from its positioning sensor over `comply_s`; sideways it still skids.
+    Comply,
+    /// As `comply`, and while the pseudo object moves toward the goal's last seen direction
+    /// (faster than `assist_speed` along it), also pushes toward the goal with `attached_push`
+    /// of its top pushing speed along its heading: it helps the pushers, and never holds the
+    /// object back.
+    #[default]
+    Assist,
 }
 
 /// Parameters of `fill-transport`: `fill` and `push` are the parameter tables of `filling` and
@@ -77,9 +106,22 @@ pub struct Params {
     /// Attached robots drive toward the goal's last seen direction, `attached_push` times
     /// their top pushing speed along their heading (signed by which way the goal lies), instead
     /// of braking with locked wheels: they push the pseudo object they are part of. 0 brakes.
-    /// Default 0.3 (provisional: 24 seeds after issue 10's braking attached robots gave U 23,
-    /// L 16, arc 15 successes; 1.0 gave 23, 19, 8; 0 gave about 11, 20, 7).
+    /// Default 0.3. In `assist` mode it is added only while the pseudo object moves toward
+    /// the goal (seeds 1-10 with the preset, U / L / arc successes: assist 0.3 gave 9, 8, 6;
+    /// assist 0.6 10, 3, 5; comply alone 8, 8, 8).
     pub attached_push: f32,
+    /// Attached robots' wheels: `"comply"` (default), `"push"` or `"brake"`.
+    pub attached: AttachedDrive,
+    /// `comply`: window (s) over which an attached robot estimates its own velocity. Default 2.
+    pub comply_s: f32,
+    /// `comply`: fraction of the measured velocity commanded. Default 1.
+    pub comply_gain: f32,
+    /// `comply`: attached robots heading within this angle (degrees) of the goal's last seen
+    /// direction (or its opposite, driving backward) push at `attached_push` instead. 0: never.
+    pub comply_push_deg: f32,
+    /// `assist`: speed (m/s) toward the goal's last seen direction above which the pseudo
+    /// object counts as moving toward the goal. Default 0.01.
+    pub assist_speed: f32,
     /// Occlusion with memory: a pusher takes the goal as hidden *by the object* only if the
     /// object's centre lies within this angle (degrees) of the goal's last seen direction;
     /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
@@ -119,6 +161,11 @@ impl Default for Params {
             push_speed: 0.1,
             hidden_s: 0.3,
             attached_push: 0.3,
+            attached: AttachedDrive::Assist,
+            assist_speed: 0.01,
+            comply_s: 2.0,
+            comply_gain: 1.0,
+            comply_push_deg: 0.0,
             relays: false,
         }
     }
@@ -155,6 +202,30 @@ pub fn factory(
             p.attached_push
         ));
     }
+    if !(positive(p.comply_s) && p.comply_s <= 60.0) {
+        return Err(format!(
+            "`comply_s` must be above 0 and at most 60 s, got {}",
+            p.comply_s
+        ));
+    }
+    if !(0.0..=2.0).contains(&p.comply_gain) {
+        return Err(format!(
+            "`comply_gain` must be 0 to 2, got {}",
+            p.comply_gain
+        ));
+    }
+    if !(0.0..=1.0).contains(&p.assist_speed) {
+        return Err(format!(
+            "`assist_speed` must be 0 to 1 m/s, got {}",
+            p.assist_speed
+        ));
+    }
+    if !(0.0..=90.0).contains(&p.comply_push_deg) {
+        return Err(format!(
+            "`comply_push_deg` must be 0 to 90, got {}",
+            p.comply_push_deg
+        ));
+    }
     if !(0.0..=180.0).contains(&p.occluded_within_deg) {
         return Err(format!(
             "`occluded_within_deg` must be 0 to 180, got {}",
@@ -174,6 +245,68 @@ pub fn factory(
     Ok(ControllerFactory::new(needs, move || {
         Box::new(FillTransport::new(p.clone(), &layout))
     }))
+}
+
+/// A robot's own recent poses (from its positioning sensor), for a least-squares estimate of
+/// its velocity and turn rate.
+#[derive(Debug, Clone)]
+struct Track {
+    window_s: f32,
+    /// (time, x, y, unwrapped heading).
+    poses: std::collections::VecDeque<[f32; 4]>,
+}
+
+impl Track {
+    fn new(window_s: f32) -> Track {
+        Track {
+            window_s,
+            poses: std::collections::VecDeque::new(),
+        }
+    }
+
+    fn add(&mut self, r: &Readings) {
+        let p = r.pose;
+        let theta = match self.poses.back() {
+            Some(last) => last[3] + wrap_angle(p.theta - last[3]),
+            None => p.theta,
+        };
+        self.poses.push_back([r.time_s, p.x, p.y, theta]);
+        while self
+            .poses
+            .front()
+            .is_some_and(|f| r.time_s - f[0] > self.window_s + 1e-4)
+        {
+            self.poses.pop_front();
+        }
+    }
+
+    /// World velocity (m/s), turn rate (rad/s) and mean heading over the window, once it spans
+    /// at least half of it.
+    fn velocity(&self) -> Option<(Vec2, f32, f32)> {
+        let (first, last) = (self.poses.front()?, self.poses.back()?);
+        if last[0] - first[0] < 0.5 * self.window_s {
+            return None;
+        }
+        let n = self.poses.len() as f32;
+        let mut mean = [0.0f32; 4];
+        for p in &self.poses {
+            for (m, x) in mean.iter_mut().zip(p) {
+                *m += x / n;
+            }
+        }
+        let (mut stt, mut sx, mut sy, mut sa) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        for p in &self.poses {
+            let dt = p[0] - mean[0];
+            stt += dt * dt;
+            sx += dt * (p[1] - mean[1]);
+            sy += dt * (p[2] - mean[2]);
+            sa += dt * (p[3] - mean[3]);
+        }
+        if stt <= 0.0 {
+            return None;
+        }
+        Some((Vec2::new(sx / stt, sy / stt), sa / stt, mean[3]))
+    }
 }
 
 /// The fill-then-transport controller.
@@ -199,6 +332,12 @@ pub struct FillTransport {
     push_speed: f32,
     hidden_s: f32,
     attached_push: f32,
+    attached: AttachedDrive,
+    comply_push: f32,
+    comply_gain: f32,
+    assist_speed: f32,
+    /// Own poses while attached, for the velocity estimate.
+    track: Track,
     /// `edge` pusher: pushing now, and since when the goal has been hidden / visible.
     pushing_now: bool,
     hidden_since: Option<f32>,
@@ -232,6 +371,11 @@ impl FillTransport {
             push_speed: p.push_speed,
             hidden_s: p.hidden_s,
             attached_push: p.attached_push,
+            attached: p.attached,
+            comply_push: p.comply_push_deg.to_radians(),
+            comply_gain: p.comply_gain,
+            assist_speed: p.assist_speed,
+            track: Track::new(p.comply_s),
             pushing_now: false,
             hidden_since: None,
             visible_since: None,
@@ -269,6 +413,39 @@ impl FillTransport {
 }
 
 impl FillTransport {
+    /// Wheel speeds of an attached robot (see [`AttachedDrive`]).
+    fn attached_drive(&mut self, r: &Readings) -> Actuation {
+        let push = |g: f32| {
+            let v = self.attached_push * self.push_speed * ops::cos(g - r.pose.theta);
+            Actuation::from_twist(v, 0.0, &self.layout)
+        };
+        match self.attached {
+            AttachedDrive::Brake => Actuation::default(),
+            AttachedDrive::Push => self.goal_dir.map_or_else(Actuation::default, push),
+            AttachedDrive::Comply | AttachedDrive::Assist => {
+                self.track.add(r);
+                if let Some(g) = self.goal_dir {
+                    let off = wrap_angle(g - r.pose.theta).abs();
+                    if off.min(PI - off) < self.comply_push {
+                        return push(g);
+                    }
+                }
+                let Some((vel, w, theta)) = self.track.velocity() else {
+                    return Actuation::default();
+                };
+                let mut fwd = vel.dot(ops::unit(theta)) * self.comply_gain;
+                if self.attached == AttachedDrive::Assist {
+                    if let Some(g) = self.goal_dir {
+                        if vel.dot(ops::unit(g)) > self.assist_speed {
+                            fwd += self.attached_push * self.push_speed * ops::cos(g - theta);
+                        }
+                    }
+                }
+                Actuation::from_twist(fwd, w * self.comply_gain, &self.layout)
+            }
+        }
+    }
+
     /// The `edge` pusher: follow the pseudo object's edge; where the goal is hidden by it,
     /// push toward its centre.
     fn edge_push(&mut self, rng: &mut RobotRng) -> Actuation {
@@ -338,11 +515,8 @@ impl Controller for FillTransport {
                 wrap_angle(ops::angle_of(to) - r.pose.theta)
             });
             let act = self.filler.step_guided(r, rng, target, centre);
-            if self.filler.fill_state() == FillState::Stopped && self.attached_push > 0.0 {
-                if let Some(g) = self.goal_dir {
-                    let v = self.attached_push * self.push_speed * ops::cos(g - r.pose.theta);
-                    return Actuation::from_twist(v, 0.0, &self.layout).with_led(act.led);
-                }
+            if self.filler.fill_state() == FillState::Stopped {
+                return self.attached_drive(r).with_led(act.led);
             }
             let st = self.filler.fill_state();
             if let (Some(c), FillState::Follow | FillState::Arc) = (centre, st) {
