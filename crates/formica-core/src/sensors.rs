@@ -683,27 +683,15 @@ fn blob_camera(
         // The LEDs are at the other robot's `led_height`; robots of one group share a model,
         // and groups mixing models are rare: the viewer's own model stands in for it.
         let led_h = model.led_height;
-        let hidden = near.iter().any(|m| {
-            if m.tag == me || m.tag == n.tag || misses(ctx, m, center, dir, dist) {
-                return false;
-            }
-            let Some(t_in) = ctx.physics.ray_entry(m, center, dir, dist) else {
-                return false;
-            };
-            let t_out = ctx
-                .physics
-                .ray_entry(m, target, -dir, dist)
-                .map_or(t_in, |s| dist - s);
-            sight_blocked(
-                model.camera_height,
-                led_h,
-                dist,
-                t_in,
-                t_out,
-                (ctx.height)(m.tag),
-            )
-        });
-        if hidden {
+        let sight = Sight {
+            from: center,
+            to: target,
+            dir,
+            dist,
+            from_h: model.camera_height,
+            to_h: led_h,
+        };
+        if sight.cut(ctx, near, &[me, n.tag]) {
             continue;
         }
         let nz = &cfg.noise;
@@ -712,6 +700,45 @@ fn blob_camera(
             distance: rng.distance(dist, nz.camera_distance_noise),
             color,
         });
+    }
+}
+
+/// A line of sight from a camera at `from` (height `from_h`) to a point `to` at height `to_h`,
+/// `dist` apart along the unit `dir`.
+struct Sight {
+    from: Vec2,
+    to: Vec2,
+    dir: Vec2,
+    dist: f32,
+    from_h: f32,
+    to_h: f32,
+}
+
+impl Sight {
+    /// Whether a body of `near` other than those tagged `skip` is tall enough where the line
+    /// crosses it to cut the line ([`sight_blocked`]).
+    fn cut(&self, ctx: &SenseContext<'_>, near: &[Nearby], skip: &[Tag]) -> bool {
+        let (dir, dist) = (self.dir, self.dist);
+        near.iter().any(|m| {
+            if skip.contains(&m.tag) || misses(ctx, m, self.from, dir, dist) {
+                return false;
+            }
+            let Some(t_in) = ctx.physics.ray_entry(m, self.from, dir, dist) else {
+                return false;
+            };
+            let t_out = ctx
+                .physics
+                .ray_entry(m, self.to, -dir, dist)
+                .map_or(t_in, |s| dist - s);
+            sight_blocked(
+                self.from_h,
+                self.to_h,
+                dist,
+                t_in,
+                t_out,
+                (ctx.height)(m.tag),
+            )
+        })
     }
 }
 
@@ -764,28 +791,15 @@ fn light_blobs(
             continue;
         }
         if dist > 1e-6 {
-            let dir = to / dist;
-            let hidden = scratch.near.iter().any(|m| {
-                if m.tag == me || misses(ctx, m, center, dir, dist) {
-                    return false;
-                }
-                let Some(t_in) = ctx.physics.ray_entry(m, center, dir, dist) else {
-                    return false;
-                };
-                let t_out = ctx
-                    .physics
-                    .ray_entry(m, light.position, -dir, dist)
-                    .map_or(t_in, |s| dist - s);
-                sight_blocked(
-                    model.camera_height,
-                    light.height,
-                    dist,
-                    t_in,
-                    t_out,
-                    (ctx.height)(m.tag),
-                )
-            });
-            if hidden {
+            let sight = Sight {
+                from: center,
+                to: light.position,
+                dir: to / dist,
+                dist,
+                from_h: model.camera_height,
+                to_h: light.height,
+            };
+            if sight.cut(ctx, &scratch.near, &[me]) {
                 continue;
             }
         }
