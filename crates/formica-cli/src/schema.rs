@@ -12,6 +12,8 @@ use std::fmt::Write as _;
 /// The JSON Schema (draft 7, self-contained: no `$ref`) of a scenario file.
 pub fn scenario_schema() -> Value {
     let mut v = generate::<formica::scenario::ScenarioSpec>();
+    // Cannot fail: schemars gives a struct an object schema (only `true`/`false` schemas are
+    // not objects); the test of the shipped files would fail first.
     let o = v.as_object_mut().expect("a schema is an object");
     o.insert("title".into(), "Formica scenario file".into());
     o.insert(
@@ -26,6 +28,7 @@ pub fn scenario_schema() -> Value {
 /// The JSON Schema (draft 7, self-contained) of a sweep (experiment) file.
 pub fn sweep_schema() -> Value {
     let mut v = generate::<crate::sweep::SweepSpec>();
+    // Cannot fail, as above: `SweepSpec` is a struct.
     let o = v.as_object_mut().expect("a schema is an object");
     o.insert("title".into(), "Formica sweep (experiment) file".into());
     v
