@@ -617,6 +617,7 @@ fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
         right,
         led,
         attach,
+        ..Actuation::default()
     })
 }
 

@@ -293,6 +293,7 @@ impl Sim {
                 right,
                 led,
                 attach,
+                ..Actuation::default()
             });
         }
         Ok(out)

@@ -33,6 +33,11 @@ pub struct Actuation {
     pub led: Color,
     /// Attach or detach.
     pub attach: AttachCommand,
+    /// Motors off: the wheel speeds are ignored and the wheels roll freely along the heading
+    /// (against a small rolling resistance) while sideways they skid, as
+    /// [`Physics::drive`](crate::physics::Physics::drive) says. Commanding zero wheel speed
+    /// instead brakes with the drive force.
+    pub coast: bool,
 }
 
 impl Actuation {
@@ -42,6 +47,13 @@ impl Actuation {
         Self {
             left: forward - half,
             right: forward + half,
+            ..Self::default()
+        }
+    }
+    /// Motors off (see [`Actuation::coast`](Actuation#structfield.coast)).
+    pub fn coasting() -> Self {
+        Self {
+            coast: true,
             ..Self::default()
         }
     }

@@ -766,8 +766,25 @@ impl Physics {
     /// A robot touching something (or attached) is driven by its joint, solved with the
     /// contacts, so it pushes and resists with exactly its traction. A robot touching nothing
     /// gets the same capped velocity change directly, at a fraction of the cost.
-    pub fn drive(&mut self, id: BodyId, model: &RobotModel, left: f32, right: f32, attached: bool) {
+    ///
+    /// With `coast` the motors are off and the wheel speeds are ignored: the wheels roll along
+    /// the heading against [`RobotModel::coast_force`] (rolling resistance), sideways they skid,
+    /// resisted with the rest of the traction circle, and a turn in place is resisted with the
+    /// rolling resistance at the wheels.
+    pub fn drive(
+        &mut self,
+        id: BodyId,
+        model: &RobotModel,
+        left: f32,
+        right: f32,
+        attached: bool,
+        coast: bool,
+    ) {
         let Some(k) = id.drive else { return };
+        if coast {
+            self.coast(id, k as usize, model, attached);
+            return;
+        }
         let fj = self.drives[k as usize];
         let l = left.clamp(-model.max_speed, model.max_speed);
         let r = right.clamp(-model.max_speed, model.max_speed);
@@ -808,21 +825,7 @@ impl Physics {
                 lin: now.lin + dv,
                 ang: now.ang + dw,
             };
-            if after != now {
-                let b = &mut self.world.bodies[id.body];
-                b.set_linvel(after.lin, false);
-                b.set_angvel(after.ang, false);
-            }
-            self.drives[k as usize] = FloorJoint {
-                pre: after,
-                active: false,
-                ..fj
-            };
-            if fj.active {
-                if let Some(j) = self.world.impulse_joints.get_mut(fj.joint, false) {
-                    j.data.set_enabled(false);
-                }
-            }
+            self.set_free_velocity(id, k as usize, now, after);
             return;
         }
         // Traction circle: the force that would reach the target within the step, given what
@@ -853,6 +856,85 @@ impl Physics {
                 .set_motor_max_force(JointAxis::LinX, caps[0])
                 .set_motor_max_force(JointAxis::LinY, caps[1])
                 .set_motor_max_force(JointAxis::AngX, t_cap);
+            if !j.data.is_enabled() {
+                j.data.set_enabled(true);
+            }
+        }
+    }
+
+    /// A robot touching nothing: its wheels' effect is a velocity change from `now` to
+    /// `after`, set directly, with its drive joint off.
+    fn set_free_velocity(&mut self, id: BodyId, k: usize, now: Twist, after: Twist) {
+        if after != now {
+            let b = &mut self.world.bodies[id.body];
+            b.set_linvel(after.lin, false);
+            b.set_angvel(after.ang, false);
+        }
+        let fj = self.drives[k];
+        self.drives[k] = FloorJoint {
+            pre: after,
+            active: false,
+            ..fj
+        };
+        if fj.active {
+            if let Some(j) = self.world.impulse_joints.get_mut(fj.joint, false) {
+                j.data.set_enabled(false);
+            }
+        }
+    }
+
+    /// A robot with its motors off (see [`Physics::drive`]): every velocity component is
+    /// brought toward zero with at most its cap, in the robot's own frame.
+    fn coast(&mut self, id: BodyId, k: usize, model: &RobotModel, attached: bool) {
+        let fj = self.drives[k];
+        let h = self.dt();
+        let b = &self.world.bodies[id.body];
+        let rot = b.rotation();
+        let heading = Vec2::new(rot.cos(), rot.sin());
+        let now = Twist {
+            lin: b.linvel(),
+            ang: b.angvel(),
+        };
+        let roll = model.coast_force();
+        // Along the heading and across it, inside the traction circle: sqrt(roll^2 + side^2)
+        // is the drive force.
+        let caps = [
+            roll,
+            (model.max_force * model.max_force - roll * roll)
+                .max(0.0)
+                .sqrt(),
+            (roll * model.wheel_distance / 2.0).min(model.max_torque),
+        ];
+        let speed = now.lin.length();
+        let touching = attached || self.in_contact(id.collider, 2.0 * speed * h + TOUCH);
+        if !touching {
+            let toward_zero = |v: f32, cap: f32| v - v.clamp(-cap, cap);
+            let along = toward_zero(now.lin.dot(heading), caps[0] / fj.mass * h);
+            let side = toward_zero(now.lin.dot(perp(heading)), caps[1] / fj.mass * h);
+            let after = Twist {
+                lin: heading * along + perp(heading) * side,
+                ang: toward_zero(now.ang, caps[2] / fj.inertia * h),
+            };
+            self.set_free_velocity(id, k, now, after);
+            return;
+        }
+        let origin = b.translation();
+        self.drives[k] = FloorJoint {
+            pre: now,
+            axis: heading,
+            active: true,
+            ..fj
+        };
+        if let Some(j) = self.world.impulse_joints.get_mut(fj.joint, false) {
+            j.data.set_local_frame1(frame(origin, heading));
+            for (ax, cap) in [JointAxis::LinX, JointAxis::LinY, JointAxis::AngX]
+                .into_iter()
+                .zip(caps)
+            {
+                j.data
+                    .set_motor_velocity(ax, 0.0, MOTOR_DAMPING)
+                    .set_motor_max_force(ax, cap);
+            }
             if !j.data.is_enabled() {
                 j.data.set_enabled(true);
             }

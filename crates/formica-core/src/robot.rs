@@ -8,6 +8,10 @@ use crate::registry::{Registry, RegistryError};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
 
+/// Rolling resistance of wheels with the motors off, as a fraction of the drive force (see
+/// [`RobotModel::coast_force`]).
+pub const COAST_FRACTION: f32 = 0.1;
+
 /// Which built-in robot a group uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -237,6 +241,15 @@ impl RobotModel {
             camera_height: 0.05,
             led_height: 0.045,
         }
+    }
+
+    /// Rolling resistance (N) of the wheels with the motors off ([`Physics::drive`]'s `coast`):
+    /// [`COAST_FRACTION`] of the drive force. An assumption (a geared motor back-driven), not
+    /// a measured figure.
+    ///
+    /// [`Physics::drive`]: crate::physics::Physics::drive
+    pub fn coast_force(&self) -> f32 {
+        COAST_FRACTION * self.max_force
     }
 
     /// Largest torque the wheels resist with when locked (an attached robot braking): the drive

@@ -591,6 +591,7 @@ impl World {
                     r.action.left,
                     r.action.right,
                     r.attached.is_some(),
+                    r.action.coast,
                 );
             }
         }

