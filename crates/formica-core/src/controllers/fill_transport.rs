@@ -25,13 +25,17 @@
 //! the occlusion controller for the filler's own edge following.
 //!
 //! **Attached robots keep their wheels on the floor** (issue 10): braking with locked wheels
-//! they would hold the pseudo object with up to their drive force each. By default
-//! (`attached = "assist"`) an attached robot is compliant: it estimates its own velocity and
-//! turn rate from its positioning sensor (least squares over `comply_s`) and commands them, so
-//! that along its heading it rolls with the pseudo object instead of braking (sideways its
-//! wheels still skid, as real wheels would); and while the pseudo object moves toward the
-//! goal's last seen direction it adds `attached_push` of its pushing speed toward the goal.
-//! It uses its own readings only (pose, light), never the object's true motion.
+//! they would hold the pseudo object with up to their drive force each, and pushing along
+//! whatever heading they stopped at they would drive it sideways. By default
+//! (`attached = "push"`) a robot about to attach first turns in place to face the goal's axis
+//! (within `align_deg`; it attaches only once it has seen the goal), so that its wheels roll
+//! along the way the pseudo object will go; attached, it pushes along its heading toward the
+//! goal's last seen direction while its heading stays within `push_within_deg` of the goal's
+//! axis, and otherwise coasts with its motors off (its wheels roll along its heading and skid
+//! sideways, see [`Actuation::coast`](crate::controller::Actuation#structfield.coast)). It uses
+//! its own readings only (pose, light), never the object's true motion. `"comply"` and
+//! `"assist"` (the earlier default) estimate the robot's own velocity from its positioning
+//! sensor instead and roll with it.
 //!
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
@@ -478,8 +482,7 @@ impl FillTransport {
             AttachedDrive::Comply | AttachedDrive::Assist => {
                 self.track.add(r);
                 if let Some(g) = self.goal_dir {
-                    let off = wrap_angle(g - r.pose.theta).abs();
-                    if off.min(PI - off) < self.comply_push {
+                    if axis_offset(g, r.pose.theta).abs() < self.comply_push {
                         return push(g);
                     }
                 }
