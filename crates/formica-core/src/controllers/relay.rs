@@ -268,7 +268,9 @@ impl Relay {
         }
         if let Some(since) = self.since {
             let gap = object.map_or(f32::INFINITY, |(_, gap)| gap);
-            if gap <= self.closest.0 - self.p.progress_m {
+            // Out of sight is no progress: an object never seen since the relay formed does
+            // not keep it on (an infinite gap never counts as closer).
+            if gap.is_finite() && gap <= self.closest.0 - self.p.progress_m {
                 self.closest = (gap, now);
             }
             let arrived = gap <= self.p.release_m;
@@ -482,5 +484,37 @@ mod tests {
         let r = readings(0.3, None, Some(3.0), &l);
         relay.observe(&r, &l);
         assert!(!relay.update(&r, true, true, &mut rng));
+    }
+
+    #[test]
+    fn a_relay_that_never_sees_the_object_gives_up_after_its_patience() {
+        // `needs_object = false`: the relay forms without the object in sight. An object that
+        // never shows is no progress, so it leaves after `patience_s` (60 s), not never.
+        let l = layout();
+        let mut rng = RobotRng::seed_from_u64(4);
+        let p = Params {
+            needs_object: false,
+            ..Params::default()
+        };
+        let mut relay = Relay::new(p, &l, vec![Color::Green]);
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), None, &l),
+            true,
+            &mut rng,
+        );
+        assert!(step(&mut relay, &lost(0.2, None, &l), true, &mut rng));
+        assert!(step(
+            &mut relay,
+            &readings(59.0, None, None, &l),
+            true,
+            &mut rng
+        ));
+        assert!(!step(
+            &mut relay,
+            &readings(60.5, None, None, &l),
+            true,
+            &mut rng
+        ));
     }
 }
