@@ -137,6 +137,21 @@ fn a_relay_dissolves_when_the_object_arrives() {
 }
 
 #[test]
+fn relays_bring_the_object_round_the_corner() {
+    // Issue 14's corner map: the object and the goal either side of a wall from the west
+    // wall. With relays the object goes round the wall's free end. Seed 1 timed out before
+    // pushers checked in their colour scan that the object, not the wall, hides the goal
+    // (`relay.occlusion_bins`) and went round the shorter way: the object was pushed into the
+    // wall's end and the arena's east wall.
+    let sc = shipped("qm-corner.toml");
+    for seed in 1..=4 {
+        let mut run = start(&sc, seed);
+        let outcome = run.run_to_end();
+        assert_eq!(format!("{outcome:?}"), "Success", "seed {seed}");
+    }
+}
+
+#[test]
 fn no_relay_forms_in_the_open_map() {
     let sc = shipped("qm-open.toml");
     for seed in 1..=3 {

@@ -9,7 +9,7 @@
 //!    ([`Readings::scan_color`]) and random-walks while it sees none. It does not shove what is
 //!    in its way.
 //! 2. **circle**: follows the object's outline with the **left-hand rule** (default
-//!    `circle_side = "left"`): the object stays on the robot's left, so robots go round it
+//!    `circle_side = "left"`; with relays `"shortest"`): the object stays on the robot's left, so robots go round it
 //!    counter-clockwise seen from above, `circle_gap` from its surface, watching the goal light.
 //! 3. **push**: where the object hides the goal (the light ring's contrast, its strongest
 //!    reading above the mean of its weaker half, stays below `dark_contrast` for `hidden_s`;
@@ -53,7 +53,10 @@
 //! of the light ring; robots approach the object only with both the object (in the colour
 //! scan) and a goal in sight; and a free robot that loses the goal where an obstacle, not the
 //! object, hides it stops and shows the goal's colour (state `relay`) until the object comes
-//! near or it sees the real goal light.
+//! near or it sees the real goal light. With no goal in sight, a circling robot pushes only
+//! where its colour scan shows the object toward where it last saw the goal
+//! (`relay.occlusion_bins`, instead of `occluder_angle_deg`), and robots go round the object
+//! the shorter way to its back (`circle_side = "shortest"`).
 
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
 use crate::controllers::relay::{self, Relay};
@@ -99,8 +102,9 @@ pub enum Side {
 pub struct Params {
     /// `"beacon"` (default) or `"camera"`.
     pub perception: Perception,
-    /// Way round the object: `"left"` (default), `"right"` or `"shortest"`.
-    pub circle_side: Side,
+    /// Way round the object: `"left"`, `"right"` or `"shortest"`. Default `"left"`; with
+    /// `relays = true`, `"shortest"` (Queiroz and MacRae's robots also go the shorter way).
+    pub circle_side: Option<Side>,
     /// Colour of the object as the camera sees it (camera perception). Default `green`.
     pub object_color: Color,
     /// Light-ring contrast (strongest reading minus the mean of the weaker half) above which
@@ -161,6 +165,7 @@ pub struct Params {
     /// Largest angle (deg) between the goal's direction (triangulated from the bearings seen
     /// so far) and the object's direction for a hidden goal to count as hidden *by the object*
     /// (a neighbour right in front also hides it). 180 switches the check off. Default 30.
+    /// With relays, `relay.occlusion_bins` decides instead (unless it is 0).
     pub occluder_angle_deg: f32,
     /// Sub-goal relays (Queiroz and MacRae 2024): the goal is what the camera shows in
     /// `relay.goal_color`, and robots that lose it behind an obstacle become relays. Default
@@ -177,7 +182,7 @@ impl Default for Params {
             object_color: Color::Green,
             lit_contrast: 0.1,
             dark_contrast: 0.06,
-            circle_side: Side::Left,
+            circle_side: None,
             approach_speed: 0.1,
             circle_speed: 0.1,
             push_speed: 0.1,
@@ -373,6 +378,16 @@ impl Occlusion {
     /// Changes `object_reach` (m), e.g. to a size the robot measured on its way round.
     pub fn set_object_reach(&mut self, reach: f32) {
         self.p.object_reach = reach;
+    }
+
+    /// The way round: `Params::circle_side`, by default the left-hand rule, and the shorter
+    /// way to the back side with relays (as Queiroz and MacRae's robots choose it).
+    fn circle_side(&self) -> Side {
+        match self.p.circle_side {
+            Some(s) => s,
+            None if self.p.relays => Side::Shortest,
+            None => Side::Left,
+        }
     }
 
     /// Seconds blocked before turning back (`Params::block_s` or its default).
@@ -582,8 +597,16 @@ impl Occlusion {
                 self.goal_fix.add(r.pose.position(), g);
             }
         }
-        // A hidden goal counts only if the object lies toward where the goal was.
+        // A hidden goal counts only if the object lies toward where the goal was. With
+        // relays, the colour scan must show the object there (`relay.occlusion_bins`).
+        let scanned = match (&self.relay, self.goal_direction(r), object) {
+            (Some(rl), Some(g), Some(_)) => {
+                rl.object_hides(r, &self.layout, wrap_angle(g - r.pose.theta))
+            }
+            _ => None,
+        };
         let by_object = match (self.goal_direction(r), object) {
+            _ if scanned.is_some() => scanned == Some(true),
             (Some(g), Some(o)) => {
                 wrap_angle(o + r.pose.theta - g).abs() <= self.p.occluder_angle_deg.to_radians()
             }
@@ -624,7 +647,7 @@ impl Occlusion {
 
     /// The way round (+1: object on the left) for a robot that sees the object at `bearing`.
     fn choose_side(&self, r: &Readings, bearing: f32) -> f32 {
-        match (self.p.circle_side, self.goal_direction(r)) {
+        match (self.circle_side(), self.goal_direction(r)) {
             (Side::Left, _) | (Side::Shortest, None) => 1.0,
             (Side::Right, _) => -1.0,
             (Side::Shortest, Some(g)) => {
@@ -1020,6 +1043,28 @@ impl Controller for Occlusion {
 mod tests {
     use super::*;
     use crate::robot::RobotModel;
+
+    #[test]
+    fn relays_go_round_the_shorter_way_unless_told() {
+        let layout = crate::sensors::SensorLayout::of(
+            &RobotModel::khepera4(),
+            &crate::scenario::SensorConfig::default(),
+        );
+        let with = |relays, circle_side| {
+            Occlusion::new(
+                Params {
+                    relays,
+                    circle_side,
+                    ..Params::default()
+                },
+                &layout,
+            )
+            .circle_side()
+        };
+        assert_eq!(with(false, None), Side::Left);
+        assert_eq!(with(true, None), Side::Shortest);
+        assert_eq!(with(true, Some(Side::Left)), Side::Left);
+    }
 
     #[test]
     fn light_bearing_finds_the_light_on_every_model() {

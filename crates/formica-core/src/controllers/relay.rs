@@ -19,6 +19,9 @@
 //!   the object does not follow misleads), or after `timeout_s`; then it may not relay again
 //!   for a random 0 to `wait_s` seconds.
 //! - **Approaching** the object needs both the object and a goal in sight ([`Relay::gate`]).
+//! - **Pushing**: with no goal in sight, a circling robot pushes only where the colour scan
+//!   shows the object toward where it last saw the goal ([`Relay::object_hides`]): behind a
+//!   wall, or facing a dissolved relay's empty place, it keeps circling.
 //!
 //! Where this departs from Queiroz and MacRae's code (`simulation/src/pusherCommon.cpp`,
 //! `pusherScript.cpp` in github.com/brenocq/object-transportation), see
@@ -65,6 +68,12 @@ pub struct Params {
     /// Relay only with the object in sight (default true). `false` is Queiroz and MacRae's
     /// code, where a robot that saw the goal without the object relays wherever it loses it.
     pub needs_object: bool,
+    /// With the goal out of sight, a circling robot pushes only where its colour scan shows
+    /// the object within this many scan bins of the goal's last bearing: the object, not a
+    /// wall or nothing, is what hides the goal there. Default 1 (the bin toward the goal and
+    /// its neighbours). 0 uses `occluder_angle_deg` instead (the angle between the goal and
+    /// the object's nearest surface point, which also counts a goal hidden by a wall).
+    pub occlusion_bins: f32,
 }
 
 impl Default for Params {
@@ -80,6 +89,7 @@ impl Default for Params {
             patience_s: 60.0,
             progress_m: 0.05,
             needs_object: true,
+            occlusion_bins: 1.0,
         }
     }
 }
@@ -107,6 +117,7 @@ impl Params {
                 ("relay.timeout_s", self.timeout_s.unwrap_or(0.0)),
                 ("relay.patience_s", self.patience_s),
                 ("relay.progress_m", self.progress_m),
+                ("relay.occlusion_bins", self.occlusion_bins),
             ],
         )
     }
@@ -218,6 +229,20 @@ impl Relay {
         self.view = View { goal, object };
     }
 
+    /// Whether the goal at `bearing` (robot frame, rad) is hidden by the object: the colour
+    /// scan shows the object within `occlusion_bins` bins of it. `None` with
+    /// `occlusion_bins = 0` (the caller's angle test applies).
+    pub fn object_hides(&self, r: &Readings, layout: &SensorLayout, bearing: f32) -> Option<bool> {
+        if self.p.occlusion_bins <= 0.0 {
+            return None;
+        }
+        let bin = std::f32::consts::TAU / layout.scan_angles.len().max(1) as f32;
+        let within = self.p.occlusion_bins * bin + 1e-4;
+        Some(r.scan_color.iter().zip(&layout.scan_angles).any(|(c, a)| {
+            self.object_colors.contains(c) && wrap_angle(a - bearing).abs() <= within
+        }))
+    }
+
     /// This tick's view.
     pub fn view(&self) -> View {
         self.view
@@ -268,7 +293,9 @@ impl Relay {
         }
         if let Some(since) = self.since {
             let gap = object.map_or(f32::INFINITY, |(_, gap)| gap);
-            if gap <= self.closest.0 - self.p.progress_m {
+            // Out of sight is no progress: an object never seen since the relay formed does
+            // not keep it on (an infinite gap never counts as closer).
+            if gap.is_finite() && gap <= self.closest.0 - self.p.progress_m {
                 self.closest = (gap, now);
             }
             let arrived = gap <= self.p.release_m;
@@ -482,5 +509,59 @@ mod tests {
         let r = readings(0.3, None, Some(3.0), &l);
         relay.observe(&r, &l);
         assert!(!relay.update(&r, true, true, &mut rng));
+    }
+
+    #[test]
+    fn a_relay_that_never_sees_the_object_gives_up_after_its_patience() {
+        // `needs_object = false`: the relay forms without the object in sight. An object that
+        // never shows is no progress, so it leaves after `patience_s` (60 s), not never.
+        let l = layout();
+        let mut rng = RobotRng::seed_from_u64(4);
+        let p = Params {
+            needs_object: false,
+            ..Params::default()
+        };
+        let mut relay = Relay::new(p, &l, vec![Color::Green]);
+        step(
+            &mut relay,
+            &readings(0.1, Some(0.0), None, &l),
+            true,
+            &mut rng,
+        );
+        assert!(step(&mut relay, &lost(0.2, None, &l), true, &mut rng));
+        assert!(step(
+            &mut relay,
+            &readings(59.0, None, None, &l),
+            true,
+            &mut rng
+        ));
+        assert!(!step(
+            &mut relay,
+            &readings(60.5, None, None, &l),
+            true,
+            &mut rng
+        ));
+    }
+
+    #[test]
+    fn only_the_object_in_the_scan_hides_the_goal() {
+        let l = layout();
+        let relay = Relay::new(Params::default(), &l, vec![Color::Green]);
+        // The object 30 degrees to the left; the goal's last bearing there, one bin (10
+        // degrees) off it, or two bins off it.
+        let r = readings(0.1, None, Some(0.52), &l);
+        assert_eq!(relay.object_hides(&r, &l, 0.52), Some(true));
+        assert_eq!(relay.object_hides(&r, &l, 0.52 + 0.17), Some(true));
+        assert_eq!(relay.object_hides(&r, &l, 0.52 + 0.35), Some(false));
+        // A wall where the goal was (the object elsewhere): not hidden by the object.
+        let r = lost(0.1, Some(2.0), &l);
+        assert_eq!(relay.object_hides(&r, &l, 0.0), Some(false));
+        // `occlusion_bins = 0`: the caller's angle test decides.
+        let p = Params {
+            occlusion_bins: 0.0,
+            ..Params::default()
+        };
+        let relay = Relay::new(p, &l, vec![Color::Green]);
+        assert_eq!(relay.object_hides(&r, &l, 0.0), None);
     }
 }
