@@ -500,34 +500,53 @@ fn a_box_pushed_through_a_gap_one_centimetre_wider_gets_through() {
     }
 }
 
+/// How far (m) a 0.4 x 1.0 m, 10 kg box with 3 N of floor friction goes in 10 s, with two
+/// Khepera IV attached to the middle of its long faces, facing out (`attached`: their
+/// `constant` parameters), and `pushers` Khepera IV pushing it at 0.1 m/s: along x, across the
+/// attached robots' headings, or with `along_y` (the box turned by 90 degrees) along them.
+fn attached_box_travel(attached: &str, pushers: usize, along_y: bool) -> f32 {
+    let mu = 3.0 / (10.0 * GRAVITY);
+    let (w, h, heading) = if along_y {
+        (1.0, 0.4, 90.0)
+    } else {
+        (0.4, 1.0, 0.0)
+    };
+    let list: Vec<[f32; 3]> = (0..pushers)
+        .map(|k| {
+            let s = (k as f32 - (pushers as f32 - 1.0) / 2.0) * 0.15;
+            let p = Vec2::new(-w / 2.0 - 0.0704 - 1e-4, s);
+            let p = if along_y { Vec2::new(p.y, p.x) } else { p };
+            [p.x, p.y, heading]
+        })
+        .collect();
+    let att = if along_y {
+        "[[0.5715, 0.0, 90.0], [-0.5715, 0.0, -90.0]]"
+    } else {
+        "[[0.0, 0.5715, 90.0], [0.0, -0.5715, -90.0]]"
+    };
+    let mut run = world(&format!(
+        "[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [{w}, {h}] }}\nmass = 10.0\nfloor_mu = {mu}\n\
+         [[robots]]\ncontroller = \"constant\"\nparams = {{ {attached}, attach = true }}\nplacement = {{ poses = {att} }}\n\
+         [[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.1, right = 0.1 }}\nplacement = {{ poses = {} }}\n[stop]\non_wall = false\n",
+        poses(&list)
+    ));
+    for _ in 0..20 {
+        run.world.step();
+    }
+    assert!(run.world.robots[0].attached.is_some() && run.world.robots[1].attached.is_some());
+    let before = run.world.object_center(0);
+    for _ in 0..100 {
+        run.world.step();
+    }
+    (run.world.object_center(0) - before).length()
+}
+
 #[test]
 fn attached_robots_brake_with_their_drive_force() {
-    // A 0.4 x 1.0 m box with 3 N of floor friction and two Khepera IV attached to its sides,
-    // commanding zero: it resists with 3 + 2 x 1.5 = 6 N. Three pushers (4.5 N) do not move
-    // it; five (7.5 N) do.
+    // Two attached Khepera IV commanding zero: the box resists with 3 + 2 x 1.5 = 6 N. Three
+    // pushers (4.5 N) do not move it; five (7.5 N) do.
     for (pushers, moves) in [(3usize, false), (5, true)] {
-        let mu = 3.0 / (10.0 * GRAVITY);
-        let list: Vec<[f32; 3]> = (0..pushers)
-            .map(|k| {
-                let y = (k as f32 - (pushers as f32 - 1.0) / 2.0) * 0.15;
-                [-0.2 - 0.0704 - 1e-4, y, 0.0]
-            })
-            .collect();
-        let mut run = world(&format!(
-            "[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [0.4, 1.0] }}\nmass = 10.0\nfloor_mu = {mu}\n\
-             [[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.0, right = 0.0, attach = true }}\nplacement = {{ poses = [[0.0, 0.5715, 90.0], [0.0, -0.5715, -90.0]] }}\n\
-             [[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.1, right = 0.1 }}\nplacement = {{ poses = {} }}\n[stop]\non_wall = false\n",
-            poses(&list)
-        ));
-        for _ in 0..20 {
-            run.world.step();
-        }
-        assert!(run.world.robots[0].attached.is_some() && run.world.robots[1].attached.is_some());
-        let before = run.world.object_center(0);
-        for _ in 0..100 {
-            run.world.step();
-        }
-        let travel = (run.world.object_center(0) - before).length();
+        let travel = attached_box_travel("left = 0.0, right = 0.0", pushers, false);
         println!("{pushers} pushers against 3 N of friction and two braking robots: {travel:.4} m in 10 s");
         if moves {
             assert!(travel > 0.3, "{pushers} pushers: {travel} m");
@@ -539,60 +558,20 @@ fn attached_robots_brake_with_their_drive_force() {
 
 #[test]
 fn attached_robots_coasting_roll_along_their_heading_and_skid_sideways() {
-    // The box of the test above, its two attached Khepera IV with their motors off, headings
-    // along y. Pushed along x (across their headings) their wheels skid: 3 + 2 x 1.49 = 6 N, so
-    // three pushers (4.5 N) do not move it and five (7.5 N) do. Pushed along y their wheels roll:
-    // 3 + 2 x 0.15 = 3.3 N, and three pushers move it.
+    // The two attached Khepera IV with their motors off. Pushed across their headings their
+    // wheels skid: 3 + 2 x 1.49 = 6 N, so three pushers (4.5 N) do not move it and five (7.5 N)
+    // do. Pushed along their headings their wheels roll: 3 + 2 x 0.15 = 3.3 N, and three
+    // pushers move it.
     for (along_y, pushers, moves) in [(false, 3usize, false), (false, 5, true), (true, 3, true)] {
-        let mu = 3.0 / (10.0 * GRAVITY);
-        let (w, h, heading) = if along_y {
-            (1.0, 0.4, 90.0)
-        } else {
-            (0.4, 1.0, 0.0)
-        };
-        let list: Vec<[f32; 3]> = (0..pushers)
-            .map(|k| {
-                let s = (k as f32 - (pushers as f32 - 1.0) / 2.0) * 0.15;
-                let p = Vec2::new(-w / 2.0 - 0.0704 - 1e-4, s);
-                let p = if along_y { Vec2::new(p.y, p.x) } else { p };
-                [p.x, p.y, heading]
-            })
-            .collect();
-        // The attached robots sit on the box's faces parallel to the push, facing out.
-        let att = if along_y {
-            "[[0.5715, 0.0, 90.0], [-0.5715, 0.0, -90.0]]"
-        } else {
-            "[[0.0, 0.5715, 90.0], [0.0, -0.5715, -90.0]]"
-        };
-        let mut run = world(&format!(
-            "[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [{w}, {h}] }}\nmass = 10.0\nfloor_mu = {mu}\n\
-             [[robots]]\ncontroller = \"constant\"\nparams = {{ coast = true, attach = true }}\nplacement = {{ poses = {att} }}\n\
-             [[robots]]\ncontroller = \"constant\"\nparams = {{ left = 0.1, right = 0.1 }}\nplacement = {{ poses = {} }}\n[stop]\non_wall = false\n",
-            poses(&list)
-        ));
-        for _ in 0..20 {
-            run.world.step();
-        }
-        assert!(run.world.robots[0].attached.is_some() && run.world.robots[1].attached.is_some());
-        let before = run.world.object_center(0);
-        for _ in 0..100 {
-            run.world.step();
-        }
-        let travel = (run.world.object_center(0) - before).length();
+        let travel = attached_box_travel("coast = true", pushers, along_y);
+        let way = if along_y { "along" } else { "across" };
         println!(
-            "{pushers} pushers {} against 3 N of friction and two coasting robots: {travel:.4} m in 10 s",
-            if along_y { "along their headings" } else { "across their headings" }
+            "{pushers} pushers {way} their headings against 3 N of friction and two coasting robots: {travel:.4} m in 10 s"
         );
         if moves {
-            assert!(
-                travel > 0.3,
-                "{pushers} pushers, along y {along_y}: {travel} m"
-            );
+            assert!(travel > 0.3, "{pushers} pushers {way}: {travel} m");
         } else {
-            assert!(
-                travel < 1e-3,
-                "{pushers} pushers, along y {along_y}: {travel} m"
-            );
+            assert!(travel < 1e-3, "{pushers} pushers {way}: {travel} m");
         }
     }
 }
