@@ -242,7 +242,9 @@ def register_controller(name: str, cls: Optional[type] = None, *, needs: Optiona
     robot's own :class:`Rng` (draw only from it and runs stay deterministic per seed). Every
     tick ``step(readings)`` gets a :class:`Readings` and returns ``(left, right)`` wheel speeds
     (m/s), optionally followed by an LED colour (a name from ``COLORS``, a code, or None) and an
-    attach command (None / ``"keep"``, ``True`` / ``"attach"``, ``False`` / ``"detach"``). A
+    attach command (None / ``"keep"``, ``True`` / ``"attach"``, ``False`` / ``"detach"``), and
+    ``coast`` (``True``: motors off, the wheel speeds ignored; the wheels roll along the heading
+    and skid sideways). A
     ``state`` attribute, if the instance has one, is its state name. ``needs`` (or a class
     attribute ``needs``) lists the sensors it reads, from ``proximity``, ``light``, ``beacon``
     and ``camera``; default: all but the camera.

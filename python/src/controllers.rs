@@ -582,20 +582,20 @@ pub(crate) fn check_wheels(left: f32, right: f32, who: impl FnOnce() -> String) 
     }
 }
 
-/// What a per-robot `step` returned: `(left, right[, led[, attach]])`.
+/// What a per-robot `step` returned: `(left, right[, led[, attach[, coast]]])`.
 fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
     let items = out.cast::<PyTuple>().map(|t| t.to_list()).or_else(|_| {
         out.cast::<PyList>().cloned().map_err(|_| {
             PyTypeError::new_err(format!(
-                "{who}: step must return (left, right, led, attach) (led and attach optional), got {}",
+                "{who}: step must return (left, right, led, attach, coast) (led, attach and coast optional), got {}",
                 out.get_type().name().map(|n| n.to_string()).unwrap_or_default()
             ))
         })
     })?;
     let n = items.len();
-    if !(2..=4).contains(&n) {
+    if !(2..=5).contains(&n) {
         return Err(PyValueError::new_err(format!(
-            "{who}: step must return 2 to 4 values (left, right, led, attach), got {n}"
+            "{who}: step must return 2 to 5 values (left, right, led, attach, coast), got {n}"
         )));
     }
     let left: f64 = items.get_item(0)?.extract()?;
@@ -612,12 +612,26 @@ fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
     } else {
         AttachCommand::Keep
     };
+    let coast = if n > 4 {
+        let c = items.get_item(4)?;
+        c.extract::<bool>().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "{who}: coast (the fifth value) must be True or False, got {}",
+                c.get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            ))
+        })?
+    } else {
+        false
+    };
     Ok(Actuation {
         left,
         right,
         led,
         attach,
-        ..Actuation::default()
+        coast,
     })
 }
 

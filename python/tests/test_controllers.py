@@ -249,3 +249,36 @@ def test_a_per_robot_controller_sees_its_row_of_the_readings():
     rows = w.readings()
     for row in rows:
         np.testing.assert_array_equal(seen[round(float(row[23]), 3), float(row[16])], row)
+
+
+def test_a_per_robot_controller_can_switch_its_motors_off():
+    # Driven at 0.2 m/s for 1 s, then "coast" with the wheels still commanded at 0.3 m/s: the
+    # speeds are ignored and the robot rolls to a stop against its rolling resistance
+    # (0.15 N on 0.4 kg: 0.375 m/s^2, about 5 cm), where driving on would go 0.6 m in 2 s.
+    class Coaster:
+        def __init__(self, layout):
+            pass
+
+        def step(self, r):
+            if r.time_s < 1.0:
+                return 0.2, 0.2
+            return 0.3, 0.3, None, None, True
+
+    formica.register_controller("py-coaster", Coaster)
+    world = formica.World(scenario("py-coaster", count=1), seed=1)
+    world.step(11)
+    start = world.robot_poses[0, :2].copy()
+    world.step(20)
+    travel = float(np.linalg.norm(world.robot_poses[0, :2] - start))
+    assert 0.02 < travel < 0.1, travel
+
+    class BadCoast:
+        def __init__(self, layout):
+            pass
+
+        def step(self, r):
+            return 0.1, 0.1, None, None, "yes"
+
+    formica.register_controller("py-badcoast", BadCoast)
+    with pytest.raises(TypeError, match="py-badcoast.*coast"):
+        formica.World(scenario("py-badcoast", count=1)).step(2)
