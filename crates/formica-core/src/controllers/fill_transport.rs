@@ -369,6 +369,9 @@ pub struct FillTransport {
     stall_rad: f32,
     /// Lap progress watch: the angle swept and the time when it last advanced by `stall_rad`.
     lap_anchor: Option<(f32, f32)>,
+    /// Angle swept when the lap began: reset once, when the robot first declines to attach
+    /// for want of a seen goal, so that it gets a full lap to see the goal and come back.
+    lap_start: Option<f32>,
     /// Farthest distance from the object's centre (m) at which this robot followed its edge.
     farthest: f32,
     /// That distance, smoothed over the last ticks of edge following.
@@ -414,6 +417,7 @@ impl FillTransport {
             stall_s: p.stall_s,
             stall_rad: p.stall_deg.to_radians(),
             lap_anchor: None,
+            lap_start: None,
             farthest: 0.0,
             dist_smooth: None,
             goal_dir: None,
@@ -594,6 +598,9 @@ impl Controller for FillTransport {
             });
             let mut act = self.filler.step_guided(r, rng, target, centre);
             if act.attach == AttachCommand::Attach {
+                if self.goal_dir.is_none() && self.attach_needs_goal && self.lap_start.is_none() {
+                    self.lap_start = Some(self.filler.circled());
+                }
                 act = self.before_attach(r, act);
             }
             if self.filler.fill_state() == FillState::Stopped {
@@ -622,7 +629,8 @@ impl Controller for FillTransport {
                     r.time_s - t >= self.stall_s
                 }
             };
-            let done = (circled.abs() >= self.laps * FULL_TURN || stalled)
+            let lap = circled - self.lap_start.unwrap_or(0.0);
+            let done = (lap.abs() >= self.laps * FULL_TURN || stalled)
                 && matches!(st, FillState::Follow | FillState::Arc);
             if !done || st == FillState::Stopped {
                 return act;

@@ -80,6 +80,18 @@ pub enum Perception {
     Camera,
 }
 
+/// How a robot sees the goal.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GoalSensor {
+    /// The light ring: the goal is hidden when the ring's contrast drops (Chen et al.).
+    Light,
+    /// The blob camera: the goal is whatever it shows in `relay.goal_color` (the goal light
+    /// needs that `color`), as Queiroz and MacRae's robots see a coloured goal region.
+    Camera,
+}
+
 /// Which way robots go round the object.
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -171,6 +183,11 @@ pub struct Params {
     /// `relay.goal_color`, and robots that lose it behind an obstacle become relays. Default
     /// false.
     pub relays: bool,
+    /// How the goal is seen: `"light"` (the light ring) or `"camera"` (the blob camera shows
+    /// it in `relay.goal_color`). Default `"light"`; with `relays = true`, `"camera"` (the
+    /// only choice there). `"camera"` without relays is Queiroz and MacRae's baseline: their
+    /// robots see the goal as a coloured region and push where they cannot see it.
+    pub goal_sensor: Option<GoalSensor>,
     /// Relay parameters (used with `relays = true`).
     pub relay: relay::Params,
 }
@@ -206,6 +223,7 @@ impl Default for Params {
             object_reach: 0.6,
             occluder_angle_deg: 30.0,
             relays: false,
+            goal_sensor: None,
             relay: relay::Params::default(),
         }
     }
@@ -226,6 +244,14 @@ pub fn factory(
 }
 
 impl Params {
+    /// Whether the goal is seen with the blob camera (`goal_sensor`, or relays).
+    pub fn goal_camera(&self) -> bool {
+        match self.goal_sensor {
+            Some(g) => g == GoalSensor::Camera,
+            None => self.relays,
+        }
+    }
+
     /// Rejects speeds, gains and times that are not positive (or gaps that are negative).
     pub fn validate(&self) -> Result<(), String> {
         let positive = [
@@ -258,7 +284,14 @@ impl Params {
         ];
         crate::controller::check_params(&positive, &non_negative)?;
         self.relay.validate()?;
-        if self.relays && self.relay.goal_color == self.object_color {
+        if self.relays && self.goal_sensor == Some(GoalSensor::Light) {
+            return Err(
+                "relays = true needs goal_sensor = \"camera\" (relays show the goal's colour, \
+                 which the light ring cannot see)"
+                    .to_string(),
+            );
+        }
+        if self.goal_camera() && self.relay.goal_color == self.object_color {
             return Err(format!(
                 "relay.goal_color and object_color are both {}: robots could not tell the \
                  goal from the object",
@@ -334,7 +367,8 @@ pub struct Occlusion {
     /// Random-walk turn while searching: rate and seconds left.
     walk_turn: f32,
     walk_left_s: f32,
-    /// The relay behaviour, with `relays = true`.
+    /// The camera's view of the goal (`goal_sensor = "camera"`), and with `relays = true` the
+    /// relay behaviour.
     relay: Option<Relay>,
 }
 
@@ -342,7 +376,7 @@ impl Occlusion {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> Occlusion {
         let relay = p
-            .relays
+            .goal_camera()
             .then(|| Relay::new(p.relay.clone(), layout, vec![p.object_color]));
         Occlusion {
             relay,
@@ -405,7 +439,7 @@ impl Occlusion {
             proximity: true,
             light: true,
             beacon: p.perception == Perception::Beacon,
-            camera: p.relays,
+            camera: p.goal_camera(),
             scan: p.perception == Perception::Camera || p.relays,
         }
     }
@@ -600,7 +634,7 @@ impl Occlusion {
         // A hidden goal counts only if the object lies toward where the goal was. With
         // relays, the colour scan must show the object there (`relay.occlusion_bins`).
         let scanned = match (&self.relay, self.goal_direction(r), object) {
-            (Some(rl), Some(g), Some(_)) => {
+            (Some(rl), Some(g), Some(_)) if self.p.relays => {
                 rl.object_hides(r, &self.layout, wrap_angle(g - r.pose.theta))
             }
             _ => None,
@@ -847,7 +881,7 @@ impl Controller for Occlusion {
         }
         let (hidden, visible) = self.goal_hidden(r, object_dir);
         let now = r.time_s;
-        if let Some(relay) = self.relay.as_mut() {
+        if let Some(relay) = self.relay.as_mut().filter(|_| self.p.relays) {
             // Only a wandering robot relays (one circling or pushing loses the goal behind
             // the object, one approaching sees both).
             let free = self.state == State::Search;
@@ -863,7 +897,7 @@ impl Controller for Occlusion {
         }
         // Relays: a free robot approaches the object only with both it and a goal in sight;
         // otherwise it wanders, keeping clear of everything (the object included).
-        let gated = self.relay.as_ref().is_some_and(|rl| !rl.gate());
+        let gated = self.p.relays && self.relay.as_ref().is_some_and(|rl| !rl.gate());
         let wander_other = if gated {
             r.proximity
                 .iter()
