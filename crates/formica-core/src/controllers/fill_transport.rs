@@ -160,8 +160,8 @@ pub struct Params {
     /// followed the edge during its lap; the pusher's `object_reach` is at least this. Default
     /// 0.12.
     pub reach_margin: f32,
-    /// Sub-goal relays for the pushers (`push.relays`, see [`relay`](super::relay)); the
-    /// attached robots' blue LEDs count as the object. Default false.
+    /// Sub-goal relays for the pushers (`push.relays`, see the `relay` module); the attached
+    /// robots' blue LEDs count as the object. Default false.
     pub relays: bool,
 }
 

@@ -45,18 +45,19 @@
 //!
 //! Positions are noisy: progress (the escape time-outs) is measured on a smoothed position.
 //!
-//! Set `occluder_angle_deg = 180` and `push_goal_bias_deg = 0` for Chen's rule alone.
+//! Set `occluder_angle_deg = 180` and `push_goal_bias_deg = 0` for Chen's rule alone; add
+//! `goal_sensor = "camera"` for Queiroz and MacRae's baseline, where robots see the goal as a
+//! coloured region in the blob camera instead of a dark light ring.
 //!
-//! **Relays** (`relays = true`, off by default; Queiroz and MacRae 2024, see
-//! [`relay`](super::relay)): the goal is then what the blob camera shows in the goal's colour
-//! (`relay.goal_color`; the goal light needs that `color`), the real goal or a relay, instead
-//! of the light ring; robots approach the object only with both the object (in the colour
-//! scan) and a goal in sight; and a free robot that loses the goal where an obstacle, not the
-//! object, hides it stops and shows the goal's colour (state `relay`) until the object comes
-//! near or it sees the real goal light. With no goal in sight, a circling robot pushes only
-//! where its colour scan shows the object toward where it last saw the goal
-//! (`relay.occlusion_bins`, instead of `occluder_angle_deg`), and robots go round the object
-//! the shorter way to its back (`circle_side = "shortest"`).
+//! **Relays** (`relays = true`, off by default; Queiroz and MacRae 2024, see [`relay`]): the goal
+//! is then what the blob camera shows in the goal's colour (`relay.goal_color`; the goal light
+//! needs that `color`), the real goal or a relay, instead of the light ring; robots approach the
+//! object only with both the object (in the colour scan) and a goal in sight; and a free robot that
+//! loses the goal where an obstacle, not the object, hides it stops and shows the goal's colour
+//! (state `relay`) until the object comes near or it sees the real goal light. With no goal in
+//! sight, a circling robot pushes only where its colour scan shows the object toward where it last
+//! saw the goal (`relay.occlusion_bins`, instead of `occluder_angle_deg`), and robots go round the
+//! object the shorter way to its back (`circle_side = "shortest"`).
 
 use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
 use crate::controllers::relay::{self, Relay};

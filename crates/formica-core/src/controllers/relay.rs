@@ -397,6 +397,17 @@ mod tests {
         relay.update(r, free, false, rng)
     }
 
+    /// A free robot with parameters `p` sees the goal ahead at 0.1 s and not at 0.2 s, with
+    /// the object at robot-frame bearing `object` (or out of sight) both times: the relay, and
+    /// whether it became one.
+    fn lose_goal(p: Params, object: Option<f32>, rng: &mut RobotRng) -> (Relay, bool) {
+        let l = layout();
+        let mut relay = Relay::new(p, &l, vec![Color::Green]);
+        step(&mut relay, &readings(0.1, Some(0.0), object, &l), true, rng);
+        let became = step(&mut relay, &lost(0.2, object, &l), true, rng);
+        (relay, became)
+    }
+
     #[test]
     fn losing_the_goal_with_the_object_in_sight_makes_a_relay() {
         let l = layout();
@@ -454,40 +465,20 @@ mod tests {
             &mut rng
         ));
         // Without the object in sight, no relay (unless `needs_object = false`).
-        let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(
-            &mut relay,
-            &readings(0.1, Some(0.0), None, &l),
-            true,
-            &mut rng,
-        );
-        assert!(!step(&mut relay, &lost(0.2, None, &l), true, &mut rng));
+        assert!(!lose_goal(Params::default(), None, &mut rng).1);
         let p = Params {
             needs_object: false,
             ..Params::default()
         };
-        let mut relay = Relay::new(p, &l, vec![Color::Green]);
-        step(
-            &mut relay,
-            &readings(0.1, Some(0.0), None, &l),
-            true,
-            &mut rng,
-        );
-        assert!(step(&mut relay, &lost(0.2, None, &l), true, &mut rng));
+        assert!(lose_goal(p, None, &mut rng).1);
     }
 
     #[test]
     fn a_relay_leaves_when_the_object_arrives_then_waits() {
         let l = layout();
         let mut rng = RobotRng::seed_from_u64(3);
-        let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(
-            &mut relay,
-            &readings(0.1, Some(0.0), Some(3.0), &l),
-            true,
-            &mut rng,
-        );
-        assert!(step(&mut relay, &lost(0.2, Some(3.0), &l), true, &mut rng));
+        let (mut relay, became) = lose_goal(Params::default(), Some(3.0), &mut rng);
+        assert!(became);
         // The object 0.05 m from the body.
         let mut near = readings(10.0, None, Some(3.0), &l);
         for (c, d) in near.scan_color.iter().zip(near.scan_range.iter_mut()) {
@@ -498,14 +489,8 @@ mod tests {
         assert!(!step(&mut relay, &near, true, &mut rng));
         assert!(relay.wait_until >= 10.0 && relay.wait_until <= 15.0);
         // Seeing the real goal also ends it.
-        let mut relay = Relay::new(Params::default(), &l, vec![Color::Green]);
-        step(
-            &mut relay,
-            &readings(0.1, Some(0.0), Some(3.0), &l),
-            true,
-            &mut rng,
-        );
-        assert!(step(&mut relay, &lost(0.2, Some(3.0), &l), true, &mut rng));
+        let (mut relay, became) = lose_goal(Params::default(), Some(3.0), &mut rng);
+        assert!(became);
         let r = readings(0.3, None, Some(3.0), &l);
         relay.observe(&r, &l);
         assert!(!relay.update(&r, true, true, &mut rng));
@@ -521,14 +506,8 @@ mod tests {
             needs_object: false,
             ..Params::default()
         };
-        let mut relay = Relay::new(p, &l, vec![Color::Green]);
-        step(
-            &mut relay,
-            &readings(0.1, Some(0.0), None, &l),
-            true,
-            &mut rng,
-        );
-        assert!(step(&mut relay, &lost(0.2, None, &l), true, &mut rng));
+        let (mut relay, became) = lose_goal(p, None, &mut rng);
+        assert!(became);
         assert!(step(
             &mut relay,
             &readings(59.0, None, None, &l),
