@@ -90,6 +90,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
         if let Some(warning) = reach_warning(&sc, w, g) {
             outln!("    warning: {warning}");
         }
+        if let Some(warning) = goal_color_warning(&sc, w, g) {
+            outln!("    warning: {warning}");
+        }
     }
     let steps = match s.run.substeps {
         formica::scenario::Substeps::Auto => format!(
@@ -151,4 +154,49 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
         p.object_reach,
         radius + 0.2
     ))
+}
+
+/// For an `occlusion` or `fill-transport` group that sees the goal with its camera (`relays =
+/// true` or `goal_sensor = "camera"`): a warning if the goal light does not show in
+/// `relay.goal_color`, since then no robot ever sees the goal (relays never form, and every
+/// robot takes the goal for hidden).
+fn goal_color_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
+    use formica::controllers::{fill_transport, occlusion};
+    let params = sc.spec.robots[g]
+        .get_ref()
+        .params
+        .as_ref()
+        .map(|p| p.get_ref().clone());
+    let p: occlusion::Params = match w.groups[g].controller.as_str() {
+        "occlusion" => formica::controller::parse_params(params.as_ref()).ok()?,
+        "fill-transport" => {
+            let f: fill_transport::Params =
+                formica::controller::parse_params(params.as_ref()).ok()?;
+            let mut push = f.push;
+            push.relays |= f.relays;
+            push
+        }
+        _ => return None,
+    };
+    if !p.goal_camera() {
+        return None;
+    }
+    let want = p.relay.goal_color;
+    let (i, light) = match w.goal_light {
+        Some(i) => (i, sc.spec.lights[i].get_ref()),
+        None => return Some("the camera looks for the goal, but there is no goal light".into()),
+    };
+    let shows = match light.color {
+        formica::scenario::Color::Off => "has no colour".to_string(),
+        c => format!("is {}", c.name()),
+    };
+    (light.color != want).then(|| {
+        format!(
+            "robots.{g} sees the goal with its camera (relays or goal_sensor = \"camera\") in \
+             {}, but the goal light {shows}: no robot will ever see the goal (set \
+             lights.{i}.color = \"{}\")",
+            want.name(),
+            want.name()
+        )
+    })
 }

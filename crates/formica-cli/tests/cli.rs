@@ -336,6 +336,41 @@ fn check_warns_when_occlusion_cannot_reach_round_the_object() {
 }
 
 #[test]
+fn check_warns_when_the_camera_goal_has_no_goal_colour() {
+    // Relays (and goal_sensor = "camera") see the goal in relay.goal_color (cyan): a goal light
+    // without that colour is never seen, so check says which key to set. The shipped qm maps
+    // colour their goal and get no warning.
+    let dir = tmp("goal-colour");
+    let check = |text: String| {
+        let f = dir.join("m.toml");
+        std::fs::write(&f, text).unwrap();
+        let out = formica().arg("check").arg(&f).output().unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let qm = std::fs::read_to_string(repo("scenarios/qm-open.toml")).unwrap();
+    let coloured = check(qm.clone());
+    assert!(!coloured.contains("warning"), "{coloured}");
+    let plain = check(qm.replace("color = \"cyan\"\n", ""));
+    assert!(
+        plain.contains("in cyan, but the goal light has no colour")
+            && plain.contains("set lights.0.color = \"cyan\""),
+        "{plain}"
+    );
+    let seed = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
+    let camera = check(seed.replace(
+        "controller = \"occlusion\"",
+        "controller = \"occlusion\"\nparams = { goal_sensor = \"camera\" }",
+    ));
+    assert!(
+        camera.contains("but the goal light has no colour"),
+        "{camera}"
+    );
+    let light = check(seed);
+    assert!(!light.contains("goal light has no colour"), "{light}");
+}
+
+#[test]
 fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
     // One physics step per tick lets a Khepera IV at 0.8 m/s move 8 cm per step, more than a
     // third of its radius: check warns, run refuses, --force runs.
