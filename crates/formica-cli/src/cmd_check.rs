@@ -156,6 +156,17 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
     ))
 }
 
+/// Warnings `formica run` prints too: set-ups under which a run cannot do what it is meant to
+/// (robots that look for a goal colour no light shows), one per robot group.
+pub(crate) fn run_warnings(sc: &Scenario) -> Vec<String> {
+    let Ok(w) = World::new(sc, &formica::world::Overrides::default()) else {
+        return Vec::new();
+    };
+    (0..w.groups.len())
+        .filter_map(|g| goal_color_warning(sc, &w, g))
+        .collect()
+}
+
 /// For an `occlusion` or `fill-transport` group that sees the goal with its camera (`relays =
 /// true` or `goal_sensor = "camera"`): a warning if the goal light does not show in
 /// `relay.goal_color`, since then no robot ever sees the goal (relays never form, and every

@@ -170,6 +170,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     crate::check_duration(a.duration)?;
     crate::check_seed(a.seed)?;
+    for w in crate::cmd_check::run_warnings(&sc) {
+        eprintln!("{}: warning: {w}", sc.file);
+    }
     match &a.seeds {
         Some(s) => run_many(&a, &sc, parse_seeds(s)?),
         None => run_one(&a, &sc, &overrides(&a, a.seed), None),

@@ -164,6 +164,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
             },
         )
         .map_err(|e| CliError::Input(format!("{} (parameter set {})", e, set.key)))?;
+        for w in crate::cmd_check::run_warnings(&set.scenario) {
+            eprintln!(
+                "{}: warning: {w} (parameter set {})",
+                set.scenario.file, set.key
+            );
+        }
     }
     // Each parameter set's provenance (the seed is not part of the scenario's digest).
     let provenance: Vec<Provenance> = sweep

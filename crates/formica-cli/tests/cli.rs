@@ -368,6 +368,19 @@ fn check_warns_when_the_camera_goal_has_no_goal_colour() {
     );
     let light = check(seed);
     assert!(!light.contains("goal light has no colour"), "{light}");
+    // `run` says it too, on stderr, before it runs.
+    let f = dir.join("plain.toml");
+    std::fs::write(&f, qm.replace("color = \"cyan\"\n", "")).unwrap();
+    let out = formica()
+        .args(["run", "--duration", "1"])
+        .arg(&f)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stderr.contains("warning: robots.0 sees the goal with its camera"),
+        "{stderr}"
+    );
 }
 
 #[test]
