@@ -90,7 +90,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         if let Some(warning) = reach_warning(&sc, w, g) {
             outln!("    warning: {warning}");
         }
-        if let Some(warning) = goal_color_warning(&sc, w, g) {
+        if let Some(warning) = goal_color_warning(&sc, g) {
             outln!("    warning: {warning}");
         }
     }
@@ -137,12 +137,7 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
     if w.groups[g].controller != "occlusion" {
         return None;
     }
-    let params = sc.spec.robots[g]
-        .get_ref()
-        .params
-        .as_ref()
-        .map(|p| p.get_ref().clone());
-    let p: Params = formica::controller::parse_params(params.as_ref()).ok()?;
+    let p: Params = formica::controller::parse_params(group_params(sc, g).as_ref()).ok()?;
     let t = w.target?;
     let radius = object_radius(w, t);
     if p.perception != Perception::Beacon || p.object_reach >= radius + 0.2 {
@@ -159,44 +154,43 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
 /// Warnings `formica run` prints too: set-ups under which a run cannot do what it is meant to
 /// (robots that look for a goal colour no light shows), one per robot group.
 pub(crate) fn run_warnings(sc: &Scenario) -> Vec<String> {
-    let Ok(w) = World::new(sc, &formica::world::Overrides::default()) else {
-        return Vec::new();
-    };
-    (0..w.groups.len())
-        .filter_map(|g| goal_color_warning(sc, &w, g))
+    (0..sc.spec.robots.len())
+        .filter_map(|g| goal_color_warning(sc, g))
         .collect()
+}
+
+/// Group `g`'s controller parameters, as the file (and `--set`) give them.
+fn group_params(sc: &Scenario, g: usize) -> Option<toml::Table> {
+    sc.spec.robots[g]
+        .get_ref()
+        .params
+        .as_ref()
+        .map(|p| p.get_ref().clone())
 }
 
 /// For an `occlusion` or `fill-transport` group that sees the goal with its camera (`relays =
 /// true` or `goal_sensor = "camera"`): a warning if the goal light does not show in
 /// `relay.goal_color`, since then no robot ever sees the goal (relays never form, and every
 /// robot takes the goal for hidden).
-fn goal_color_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
+fn goal_color_warning(sc: &Scenario, g: usize) -> Option<String> {
+    use formica::controller::parse_params;
     use formica::controllers::{fill_transport, occlusion};
-    let params = sc.spec.robots[g]
-        .get_ref()
-        .params
-        .as_ref()
-        .map(|p| p.get_ref().clone());
-    let p: occlusion::Params = match w.groups[g].controller.as_str() {
-        "occlusion" => formica::controller::parse_params(params.as_ref()).ok()?,
-        "fill-transport" => {
-            let f: fill_transport::Params =
-                formica::controller::parse_params(params.as_ref()).ok()?;
-            let mut push = f.push;
-            push.relays |= f.relays;
-            push
-        }
+    let params = group_params(sc, g);
+    let p: occlusion::Params = match sc.spec.robots[g].get_ref().controller.get_ref().as_str() {
+        "occlusion" => parse_params(params.as_ref()).ok()?,
+        "fill-transport" => parse_params::<fill_transport::Params>(params.as_ref())
+            .ok()?
+            .pusher(),
         _ => return None,
     };
     if !p.goal_camera() {
         return None;
     }
     let want = p.relay.goal_color;
-    let (i, light) = match w.goal_light {
-        Some(i) => (i, sc.spec.lights[i].get_ref()),
-        None => return Some("the camera looks for the goal, but there is no goal light".into()),
+    let Some(i) = sc.goal_light() else {
+        return Some("the camera looks for the goal, but there is no goal light".into());
     };
+    let light = sc.spec.lights[i].get_ref();
     let shows = match light.color {
         formica::scenario::Color::Off => "has no colour".to_string(),
         c => format!("is {}", c.name()),

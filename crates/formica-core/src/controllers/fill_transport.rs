@@ -198,13 +198,22 @@ impl Default for Params {
     }
 }
 
+impl Params {
+    /// The pushers' `occlusion` parameters: `push`, with relays on if `relays` says so.
+    pub fn pusher(&self) -> occlusion::Params {
+        let mut push = self.push.clone();
+        push.relays |= self.relays;
+        push
+    }
+}
+
 /// Builds the factory.
 pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
     let mut p: Params = parse_params(params)?;
-    p.push.relays |= p.relays;
+    p.push = p.pusher();
     p.fill.validate().map_err(|e| format!("fill: {e}"))?;
     p.push.validate().map_err(|e| format!("push: {e}"))?;
     let positive = |x: f32| x > 0.0 && x.is_finite();
