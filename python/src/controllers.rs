@@ -588,7 +588,7 @@ fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
         out.cast::<PyList>().cloned().map_err(|_| {
             PyTypeError::new_err(format!(
                 "{who}: step must return (left, right, led, attach, coast) (led, attach and coast optional), got {}",
-                out.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+                crate::type_name(out)
             ))
         })
     })?;
@@ -617,10 +617,7 @@ fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
         c.extract::<bool>().map_err(|_| {
             PyTypeError::new_err(format!(
                 "{who}: coast (the fifth value) must be True or False, got {}",
-                c.get_type()
-                    .name()
-                    .map(|n| n.to_string())
-                    .unwrap_or_default()
+                crate::type_name(&c)
             ))
         })?
     } else {

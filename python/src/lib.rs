@@ -40,6 +40,14 @@ pyo3::create_exception!(
 /// the simulator as a panic payload and raised again at the Python boundary.
 pub(crate) struct Raised(pub(crate) PyErr);
 
+/// The Python type name of `v`, for error messages ("" if Python cannot say).
+pub(crate) fn type_name(v: &Bound<'_, PyAny>) -> String {
+    v.get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_default()
+}
+
 /// Leaves the simulation with the Python exception `e`; [`guard`] raises it again.
 pub(crate) fn raise(e: PyErr) -> ! {
     std::panic::panic_any(Raised(e))

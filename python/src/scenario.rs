@@ -124,10 +124,7 @@ pub(crate) fn scenario_of(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<Sc
     let path: PathBuf = obj.extract().map_err(|_| {
         PyTypeError::new_err(format!(
             "expected a formica.Scenario or a path, got {}",
-            obj.get_type()
-                .name()
-                .map(|n| n.to_string())
-                .unwrap_or_default()
+            crate::type_name(obj)
         ))
     })?;
     let s = load_file(&path).map_err(|e| scenario_error(py, &e))?;

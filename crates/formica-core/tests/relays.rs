@@ -136,6 +136,11 @@ fn a_relay_dissolves_when_the_object_arrives() {
     );
 }
 
+/// How seed `seed` of `sc` ends, run to its end ("Success", "Timeout", ...).
+fn outcome(sc: &Scenario, seed: u64) -> String {
+    format!("{:?}", start(sc, seed).run_to_end())
+}
+
 #[test]
 fn relays_bring_the_object_round_the_corner() {
     // Issue 14's corner map: the object and the goal either side of a wall from the west
@@ -145,9 +150,7 @@ fn relays_bring_the_object_round_the_corner() {
     // wall's end and the arena's east wall.
     let sc = shipped("qm-corner.toml");
     for seed in 1..=4 {
-        let mut run = start(&sc, seed);
-        let outcome = run.run_to_end();
-        assert_eq!(format!("{outcome:?}"), "Success", "seed {seed}");
+        assert_eq!(outcome(&sc, seed), "Success", "seed {seed}");
     }
 }
 
@@ -259,9 +262,7 @@ fn chens_rule_with_the_camera_goal_fails_the_corner_map() {
     let text = shipped_text("qm-corner.toml").replace("params = { relays = true }", CHEN_CAMERA);
     let sc = Scenario::parse(&text, "qm-corner.toml").unwrap();
     for seed in 1..=2 {
-        let mut run = start(&sc, seed);
-        let outcome = run.run_to_end();
-        assert_ne!(format!("{outcome:?}"), "Success", "seed {seed}");
+        assert_ne!(outcome(&sc, seed), "Success", "seed {seed}");
     }
 }
 
