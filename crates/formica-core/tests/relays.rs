@@ -279,3 +279,51 @@ fn relays_need_the_camera_goal() {
         .to_string();
     assert!(e.contains("goal_sensor"), "{e}");
 }
+
+#[test]
+fn fillers_relay_on_their_way_to_the_object() {
+    // fill-transport with relays, the H at N = 30 in the middle map: robots drive to the object
+    // first, and none would wander (and relay) before filling is over, by when the object is
+    // hidden in the crowd. Fillers that lose the goal behind the obstacle on their way relay,
+    // before any robot pushes (in seeds 3 and 4 of 1 to 6 within 2 s; in 1 and 2 none does).
+    let h = "[[-0.2, -0.2], [-0.1, -0.2], [-0.1, -0.05], [0.1, -0.05], [0.1, -0.2], \
+             [0.2, -0.2], [0.2, 0.2], [0.1, 0.2], [0.1, 0.05], [-0.1, 0.05], [-0.1, 0.2], \
+             [-0.2, 0.2]]";
+    let text = shipped_text("qm-middle.toml")
+        .replace(
+            "shape = { box = [0.4, 0.4] }",
+            &format!("shape = {{ polygon = {h} }}"),
+        )
+        .replace("count = 20", "count = 30")
+        .replace(
+            "controller = \"occlusion\"",
+            "controller = \"fill-transport\"",
+        );
+    let sc = Scenario::parse(&text, "qm-middle.toml").unwrap();
+    for seed in 3..=4 {
+        let mut run = start(&sc, seed);
+        let mut relayed = None;
+        while relayed.is_none() && run.world.time_s < 120.0 {
+            run.step();
+            let w = &run.world;
+            assert!(
+                w.robots.iter().all(|r| !r.state.starts_with("push")),
+                "seed {seed}: a robot pushes at {:.1} s before any filler relayed",
+                w.time_s
+            );
+            relayed = w.robots.iter().position(|r| r.state == "relay");
+        }
+        let i = relayed.unwrap_or_else(|| panic!("seed {seed}: no filler relayed in 120 s"));
+        let w = &run.world;
+        let wall = &w.walls[4];
+        let p = |v: Vec2| [f64::from(v.x), f64::from(v.y)];
+        assert!(
+            crosses(
+                &rect(wall.center, wall.size, 0.1),
+                p(w.robot_pose(i).position()),
+                p(w.goal().unwrap())
+            ),
+            "seed {seed}: robot {i} relayed with a clear view of the goal"
+        );
+    }
+}

@@ -10,9 +10,10 @@
 //! **When filling is over** is decided by each robot alone, without a leader or messages: a
 //! robot that has swept `laps` full turns (default 1) around the pseudo object without finding
 //! a concave spot concludes that there is none left and becomes a **pusher** for good; so does a
-//! robot whose lap has not advanced by `stall_deg` for `stall_s` (a crowd of fillers jammed
-//! around a small object never completes a lap, and nobody would push). Pushers run the
-//! `occlusion` controller ([`Occlusion`], beacon perception): they circle the pseudo
+//! robot whose lap has not advanced past its record by `stall_deg` for `stall_s` (a crowd of
+//! fillers jammed around a small object never completes a lap, and nobody would push; a filler
+//! that follows an obstacle or a wall as if it were the object goes back and forth). Pushers
+//! run the `occlusion` controller ([`Occlusion`], beacon perception): they circle the pseudo
 //! object and push where it hides the goal light (the ring's contrast low). Occlusion with
 //! memory: a pusher remembers the goal's direction (world frame) from when it last saw it, and
 //! takes a dark light ring as "hidden by the object" only if the object's centre lies within
@@ -40,7 +41,10 @@
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
 //! With `relays = true` (sub-goal relays, [`relay`](super::relay)) a pusher that relays shows
-//! the goal's colour instead (state `relay`).
+//! the goal's colour instead (state `relay`); so does a filler on its way to the object (it has
+//! not touched it yet) that loses the goal behind an obstacle: the robots all drive to the object
+//! at once, and by the time filling is over the crowd hides the object from wanderers, so
+//! relays formed later are few.
 
 use crate::controller::{
     parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
@@ -151,8 +155,9 @@ pub struct Params {
     /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
     /// Default 90; 180 turns the check off.
     pub occluded_within_deg: f32,
-    /// Seconds after which a filler whose lap has not advanced by `stall_deg` since its first
-    /// contact becomes a pusher. Default 240.
+    /// Seconds after which a filler whose lap has not advanced by `stall_deg` past its record
+    /// (its farthest so far, either way round; going back and forth is no progress) becomes a
+    /// pusher. Default 240.
     pub stall_s: f32,
     /// Lap progress (degrees around the object's centre) that counts as advancing. Default 30.
     pub stall_deg: f32,
@@ -376,7 +381,8 @@ pub struct FillTransport {
     reach_margin: f32,
     stall_s: f32,
     stall_rad: f32,
-    /// Lap progress watch: the angle swept and the time when it last advanced by `stall_rad`.
+    /// Lap progress watch: the lap's record (rad, either way round) and when it last grew by
+    /// `stall_rad`.
     lap_anchor: Option<(f32, f32)>,
     /// Angle swept when the lap began: reset once, when the robot first declines to attach
     /// for want of a seen goal, so that it gets a full lap to see the goal and come back.
@@ -409,12 +415,16 @@ pub struct FillTransport {
     /// Whether this tick's dark light ring is not the object's doing (occlusion with memory).
     veto: bool,
     layout: SensorLayout,
+    /// Sub-goal relays on (fillers on their way to the object may relay too).
+    relays: bool,
 }
 
 impl FillTransport {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> FillTransport {
-        let mut pusher = Occlusion::new(p.push, layout);
+        let push = p.pusher();
+        let relays = push.relays;
+        let mut pusher = Occlusion::new(push, layout);
         pusher.add_relay_object_color(Color::Blue);
         FillTransport {
             filler: Filler::new(p.fill, layout),
@@ -448,6 +458,7 @@ impl FillTransport {
             seen: Readings::default(),
             veto: false,
             layout: layout.clone(),
+            relays,
         }
     }
 
@@ -599,6 +610,18 @@ impl FillTransport {
 impl Controller for FillTransport {
     fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
         self.filter_light(r);
+        if !self.pushing && self.relays {
+            // Relays form on the way to the object too: a filler that has not reached it yet
+            // wanders as far as the relay rule is concerned.
+            let free = !self.filler.touched()
+                && matches!(
+                    self.filler.fill_state(),
+                    FillState::Approach | FillState::Search
+                );
+            if let Some(act) = self.pusher.relay_only(r, rng, free) {
+                return act;
+            }
+        }
         if !self.pushing {
             let centre = r.beacon;
             let target = centre.map(|c| {
@@ -609,6 +632,7 @@ impl Controller for FillTransport {
             if act.attach == AttachCommand::Attach {
                 if self.goal_dir.is_none() && self.attach_needs_goal && self.lap_start.is_none() {
                     self.lap_start = Some(self.filler.circled());
+                    self.lap_anchor = None;
                 }
                 act = self.before_attach(r, act);
             }
@@ -628,17 +652,19 @@ impl Controller for FillTransport {
             } else {
                 self.dist_smooth = None;
             }
-            let circled = self.filler.circled();
+            let lap = self.filler.circled() - self.lap_start.unwrap_or(0.0);
+            // Progress is a new record of the lap: a filler that goes back and forth (round
+            // an obstacle it took for the object, then along a wall and back) never completes
+            // one, and stalls.
             let stalled = self.filler.touched() && {
-                let (a, t) = *self.lap_anchor.get_or_insert((circled, r.time_s));
-                if (circled - a).abs() >= self.stall_rad {
-                    self.lap_anchor = Some((circled, r.time_s));
+                let (best, t) = *self.lap_anchor.get_or_insert((lap.abs(), r.time_s));
+                if lap.abs() >= best + self.stall_rad {
+                    self.lap_anchor = Some((lap.abs(), r.time_s));
                     false
                 } else {
                     r.time_s - t >= self.stall_s
                 }
             };
-            let lap = circled - self.lap_start.unwrap_or(0.0);
             let done = (lap.abs() >= self.laps * FULL_TURN || stalled)
                 && matches!(st, FillState::Follow | FillState::Arc);
             if !done || st == FillState::Stopped {
@@ -670,7 +696,9 @@ impl Controller for FillTransport {
     }
 
     fn state(&self) -> &'static str {
-        if self.pushing && self.pusher_kind == Pusher::Edge {
+        if !self.pushing && self.pusher.is_relay() {
+            "relay"
+        } else if self.pushing && self.pusher_kind == Pusher::Edge {
             if self.pushing_now {
                 "push"
             } else {
@@ -687,5 +715,54 @@ impl Controller for FillTransport {
         } else {
             self.filler.fill_state().name()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Pose;
+    use crate::robot::RobotModel;
+    use crate::scenario::SensorConfig;
+    use rand::SeedableRng;
+    use std::f32::consts::{FRAC_PI_2, TAU};
+
+    #[test]
+    fn a_filler_that_goes_back_and_forth_stalls_and_pushes() {
+        // A filler that follows an edge round 120 degrees of the object's centre and back,
+        // again and again (an obstacle taken for the object, then a wall back), never completes
+        // a lap. Its lap progress is the record, so it stalls after `stall_s` (240 s) and pushes;
+        // counted as any swing of 30 degrees it would fill for ever.
+        let layout = SensorLayout::of(&RobotModel::khepera4(), &SensorConfig::default());
+        let mut ft = FillTransport::new(Params::default(), &layout);
+        let mut rng = RobotRng::seed_from_u64(1);
+        let left = (0..layout.proximity_angles.len())
+            .min_by(|a, b| {
+                let d = |i: &usize| wrap_angle(layout.proximity_angles[*i] - FRAC_PI_2).abs();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        let mut proximity = vec![0.0; layout.proximity_angles.len()];
+        proximity[left] = 0.9;
+        let mut became = None;
+        for k in 0..4000 {
+            let t = k as f32 * 0.1;
+            let a = TAU / 3.0 * 0.5 * (1.0 - ops::cos(TAU * t / 40.0));
+            let r = Readings {
+                time_s: t,
+                proximity: proximity.clone(),
+                light: vec![0.0; layout.light_angles.len()],
+                pose: Pose::new(0.4 * ops::cos(a), 0.4 * ops::sin(a), a + FRAC_PI_2),
+                beacon: Some(Vec2::ZERO),
+                ..Readings::default()
+            };
+            ft.step(&r, &mut rng);
+            if ft.is_pusher() {
+                became = Some(t);
+                break;
+            }
+        }
+        let t = became.expect("still filling after 400 s");
+        assert!((240.0..300.0).contains(&t), "pushes from {t} s");
     }
 }

@@ -455,6 +455,37 @@ impl Occlusion {
         }
     }
 
+    /// With relays: the relay rule for a robot that another controller drives this tick (a
+    /// filler on its way to the object, which counts as wandering when `free`). Returns what a
+    /// relay does (stand still, showing the goal's colour) while the robot relays.
+    pub fn relay_only(
+        &mut self,
+        r: &Readings,
+        rng: &mut RobotRng,
+        free: bool,
+    ) -> Option<Actuation> {
+        if let Some(relay) = self.relay.as_mut() {
+            relay.observe(r, &self.layout);
+        }
+        self.relay_update(r, rng, free)
+    }
+
+    /// One tick of the relay rule (after `Relay::observe`): the relay's actuation while the
+    /// robot relays; a robot that stops relaying goes back to searching.
+    fn relay_update(&mut self, r: &Readings, rng: &mut RobotRng, free: bool) -> Option<Actuation> {
+        let relay = self.relay.as_mut().filter(|_| self.p.relays)?;
+        let real_goal = light_contrast(&r.light) > self.p.lit_contrast;
+        if relay.update(r, free, real_goal, rng) {
+            self.set_state(State::Relay, r);
+            self.last_s = r.time_s;
+            return Some(self.twist(0.0, 0.0).with_led(self.p.relay.goal_color));
+        }
+        if self.state == State::Relay {
+            self.set_state(State::Search, r);
+        }
+        None
+    }
+
     /// Whether the robot is a relay now.
     pub fn is_relay(&self) -> bool {
         self.state == State::Relay
@@ -882,19 +913,10 @@ impl Controller for Occlusion {
         }
         let (hidden, visible) = self.goal_hidden(r, object_dir);
         let now = r.time_s;
-        if let Some(relay) = self.relay.as_mut().filter(|_| self.p.relays) {
-            // Only a wandering robot relays (one circling or pushing loses the goal behind
-            // the object, one approaching sees both).
-            let free = self.state == State::Search;
-            let real_goal = light_contrast(&r.light) > self.p.lit_contrast;
-            if relay.update(r, free, real_goal, rng) {
-                self.set_state(State::Relay, r);
-                self.last_s = now;
-                return self.twist(0.0, 0.0).with_led(self.p.relay.goal_color);
-            }
-            if self.state == State::Relay {
-                self.set_state(State::Search, r);
-            }
+        // Only a wandering robot relays (one circling or pushing loses the goal behind the
+        // object, one approaching sees both).
+        if let Some(act) = self.relay_update(r, rng, self.state == State::Search) {
+            return act;
         }
         // Relays: a free robot approaches the object only with both it and a goal in sight;
         // otherwise it wanders, keeping clear of everything (the object included).

@@ -60,7 +60,8 @@ pub struct Params {
     /// A relay leaves after this many seconds (default: never, as Queiroz and MacRae).
     pub timeout_s: Option<f32>,
     /// A relay leaves when the object has come no closer by `progress_m` for this many
-    /// seconds (or has been out of sight that long). Default 60; `inf`-like large values
+    /// seconds (or has been out of sight that long). Default 300 (fill-transport's relays form
+    /// while the others fill, minutes before the object moves); `inf`-like large values
     /// switch it off.
     pub patience_s: f32,
     /// Progress (m) that counts for `patience_s`. Default 0.05.
@@ -86,7 +87,7 @@ impl Default for Params {
             release_m: 0.1,
             wait_s: 5.0,
             timeout_s: None,
-            patience_s: 60.0,
+            patience_s: 300.0,
             progress_m: 0.05,
             needs_object: true,
             occlusion_bins: 1.0,
@@ -499,11 +500,12 @@ mod tests {
     #[test]
     fn a_relay_that_never_sees_the_object_gives_up_after_its_patience() {
         // `needs_object = false`: the relay forms without the object in sight. An object that
-        // never shows is no progress, so it leaves after `patience_s` (60 s), not never.
+        // never shows is no progress, so it leaves after `patience_s` (here 60 s), not never.
         let l = layout();
         let mut rng = RobotRng::seed_from_u64(4);
         let p = Params {
             needs_object: false,
+            patience_s: 60.0,
             ..Params::default()
         };
         let (mut relay, became) = lose_goal(p, None, &mut rng);
