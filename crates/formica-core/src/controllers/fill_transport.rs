@@ -204,13 +204,18 @@ impl Default for Params {
 }
 
 impl Params {
-    /// The pushers' `occlusion` parameters: `push`, with relays on if `relays` says so.
+    /// The pushers' `occlusion` parameters: `push`, with relays on if `relays` says so, and
+    /// the relays' patience 300 s unless set (relays form while the others fill).
     pub fn pusher(&self) -> occlusion::Params {
         let mut push = self.push.clone();
         push.relays |= self.relays;
+        push.relay.patience_s.get_or_insert(RELAY_PATIENCE_S);
         push
     }
 }
+
+/// Patience of the pushers' relays (s) unless set (`relay.patience_s`).
+pub const RELAY_PATIENCE_S: f32 = 300.0;
 
 /// Builds the factory.
 pub fn factory(

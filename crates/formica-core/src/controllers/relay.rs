@@ -60,10 +60,10 @@ pub struct Params {
     /// A relay leaves after this many seconds (default: never, as Queiroz and MacRae).
     pub timeout_s: Option<f32>,
     /// A relay leaves when the object has come no closer by `progress_m` for this many
-    /// seconds (or has been out of sight that long). Default 300 (fill-transport's relays form
-    /// while the others fill, minutes before the object moves); `inf`-like large values
-    /// switch it off.
-    pub patience_s: f32,
+    /// seconds (or has been out of sight that long). Default 60; 300 for `fill-transport`'s
+    /// pushers, whose relays form while the others fill, minutes before the object moves.
+    /// `inf`-like large values switch it off.
+    pub patience_s: Option<f32>,
     /// Progress (m) that counts for `patience_s`. Default 0.05.
     pub progress_m: f32,
     /// Relay only with the object in sight (default true). `false` is Queiroz and MacRae's
@@ -87,7 +87,7 @@ impl Default for Params {
             release_m: 0.1,
             wait_s: 5.0,
             timeout_s: None,
-            patience_s: 300.0,
+            patience_s: None,
             progress_m: 0.05,
             needs_object: true,
             occlusion_bins: 1.0,
@@ -116,13 +116,16 @@ impl Params {
                 ("relay.release_m", self.release_m),
                 ("relay.wait_s", self.wait_s),
                 ("relay.timeout_s", self.timeout_s.unwrap_or(0.0)),
-                ("relay.patience_s", self.patience_s),
+                ("relay.patience_s", self.patience_s.unwrap_or(0.0)),
                 ("relay.progress_m", self.progress_m),
                 ("relay.occlusion_bins", self.occlusion_bins),
             ],
         )
     }
 }
+
+/// `Params::patience_s` unless set (s).
+pub const PATIENCE_S: f32 = 60.0;
 
 /// What makes a relay give up standing in for the goal, besides the object arriving.
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
@@ -300,7 +303,8 @@ impl Relay {
                 self.closest = (gap, now);
             }
             let arrived = gap <= self.p.release_m;
-            let stale = now - self.closest.1 >= self.p.patience_s;
+            let patience = self.p.patience_s.unwrap_or(PATIENCE_S);
+            let stale = now - self.closest.1 >= patience;
             let old = self.p.timeout_s.is_some_and(|t| now - since >= t);
             let sees = match self.p.leave_on {
                 LeaveOn::Light => real_goal,
@@ -505,7 +509,7 @@ mod tests {
         let mut rng = RobotRng::seed_from_u64(4);
         let p = Params {
             needs_object: false,
-            patience_s: 60.0,
+            patience_s: Some(60.0),
             ..Params::default()
         };
         let (mut relay, became) = lose_goal(p, None, &mut rng);
