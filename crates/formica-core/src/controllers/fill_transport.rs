@@ -420,16 +420,12 @@ pub struct FillTransport {
     /// Whether this tick's dark light ring is not the object's doing (occlusion with memory).
     veto: bool,
     layout: SensorLayout,
-    /// Sub-goal relays on (fillers on their way to the object may relay too).
-    relays: bool,
 }
 
 impl FillTransport {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> FillTransport {
-        let push = p.pusher();
-        let relays = push.relays;
-        let mut pusher = Occlusion::new(push, layout);
+        let mut pusher = Occlusion::new(p.pusher(), layout);
         pusher.add_relay_object_color(Color::Blue);
         FillTransport {
             filler: Filler::new(p.fill, layout),
@@ -463,7 +459,6 @@ impl FillTransport {
             seen: Readings::default(),
             veto: false,
             layout: layout.clone(),
-            relays,
         }
     }
 
@@ -615,7 +610,7 @@ impl FillTransport {
 impl Controller for FillTransport {
     fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
         self.filter_light(r);
-        if !self.pushing && self.relays {
+        if !self.pushing && self.pusher.params().relays {
             // Relays form on the way to the object too: a filler that has not reached it yet
             // wanders as far as the relay rule is concerned.
             let free = !self.filler.touched()
@@ -746,6 +741,7 @@ mod tests {
                 let d = |i: &usize| wrap_angle(layout.proximity_angles[*i] - FRAC_PI_2).abs();
                 d(a).total_cmp(&d(b))
             })
+            // Cannot fail: a Khepera IV has 8 proximity sensors.
             .unwrap();
         let mut proximity = vec![0.0; layout.proximity_angles.len()];
         proximity[left] = 0.9;
@@ -767,6 +763,7 @@ mod tests {
                 break;
             }
         }
+        // The test's assertion: a filler that never turns pusher fails here.
         let t = became.expect("still filling after 400 s");
         assert!((240.0..300.0).contains(&t), "pushes from {t} s");
     }
