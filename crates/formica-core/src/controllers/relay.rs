@@ -10,7 +10,9 @@
 //! - **Becoming a relay.** A wandering robot (searching: not approaching, circling or
 //!   pushing) that saw a goal on the last tick and sees none now becomes a relay if a wall hid
 //!   it (`behind_wall`: the scan shows a wall, nearer than the goal was, where the goal was)
-//!   and, with `needs_object`, it sees the object now. Queiroz and MacRae's angle test is an
+//!   and, with `needs_object`, it sees the object now or has not seen it for `blind_after_s`
+//!   (the object is in another compartment: the first relays of a chain toward it form
+//!   where nothing can see it). Queiroz and MacRae's angle test is an
 //!   option (`angle_deg`): the goal-object angle was above it the last time both were in
 //!   sight (true if the goal was seen without the object).
 //! - **A relay** stops and shows `goal_color`. It leaves when its light sensors see the real
@@ -69,6 +71,12 @@ pub struct Params {
     /// Relay only with the object in sight (default true). `false` is Queiroz and MacRae's
     /// code, where a robot that saw the goal without the object relays wherever it loses it.
     pub needs_object: bool,
+    /// With `needs_object`: a robot that has not seen the object for this many seconds (since
+    /// the start, if never) relays without it in sight. Where the object lies in a closed
+    /// compartment, nothing that sees the goal or a relay can see it; the robots there have
+    /// long lost sight of it, while those near the object see it every few seconds. Default
+    /// 120; large values switch it off.
+    pub blind_after_s: f32,
     /// With the goal out of sight, a circling robot pushes only where its colour scan shows
     /// the object within this many scan bins of the goal's last bearing: the object, not a
     /// wall or nothing, is what hides the goal there. Default 1 (the bin toward the goal and
@@ -90,6 +98,7 @@ impl Default for Params {
             patience_s: None,
             progress_m: 0.05,
             needs_object: true,
+            blind_after_s: 120.0,
             occlusion_bins: 1.0,
         }
     }
@@ -117,6 +126,7 @@ impl Params {
                 ("relay.wait_s", self.wait_s),
                 ("relay.timeout_s", self.timeout_s.unwrap_or(0.0)),
                 ("relay.patience_s", self.patience_s.unwrap_or(0.0)),
+                ("relay.blind_after_s", self.blind_after_s),
                 ("relay.progress_m", self.progress_m),
                 ("relay.occlusion_bins", self.occlusion_bins),
             ],
@@ -174,6 +184,8 @@ pub struct Relay {
     view: View,
     /// The scan shows a wall, nearer than the goal was, where the goal was last seen.
     wall_was: bool,
+    /// When the object was last in sight (s; 0 if never).
+    object_seen: f32,
 }
 
 impl Relay {
@@ -192,6 +204,7 @@ impl Relay {
             goal_mem: None,
             view: View::default(),
             wall_was: false,
+            object_seen: 0.0,
         }
     }
 
@@ -286,6 +299,10 @@ impl Relay {
     ) -> bool {
         let now = r.time_s;
         let View { goal, object } = self.view;
+        if object.is_some() {
+            self.object_seen = now;
+        }
+        let blind = now - self.object_seen >= self.p.blind_after_s;
         let wide_angle = self.p.angle_deg.to_radians();
         let last_goal = self.last_goal;
         self.last_goal = goal.map(|(g, d)| (wrap_angle(g + r.pose.theta), d));
@@ -324,7 +341,7 @@ impl Relay {
             && now >= self.wait_until
             && self.wide
             && (self.wall_was || !self.p.behind_wall)
-            && (object.is_some() || !self.p.needs_object);
+            && (object.is_some() || !self.p.needs_object || blind);
         if trigger {
             self.since = Some(now);
             self.closest = (object.map_or(f32::INFINITY, |(_, gap)| gap), now);
@@ -476,6 +493,42 @@ mod tests {
             ..Params::default()
         };
         assert!(lose_goal(p, None, &mut rng).1);
+    }
+
+    #[test]
+    fn a_robot_long_out_of_sight_of_the_object_relays_without_it() {
+        let l = layout();
+        let mut rng = RobotRng::seed_from_u64(7);
+        let p = Params {
+            blind_after_s: 30.0,
+            ..Params::default()
+        };
+        // Saw the object at 10 s, loses the goal behind a wall at 39 s and at 41 s: only the
+        // second is `blind_after_s` after the last sight of the object.
+        let lose_at = |t: f32, rng: &mut RobotRng| {
+            let mut relay = Relay::new(p.clone(), &l, vec![Color::Green]);
+            step(&mut relay, &readings(10.0, None, Some(3.0), &l), true, rng);
+            step(
+                &mut relay,
+                &readings(t - 0.1, Some(0.0), None, &l),
+                true,
+                rng,
+            );
+            step(&mut relay, &lost(t, None, &l), true, rng)
+        };
+        assert!(!lose_at(39.0, &mut rng));
+        assert!(lose_at(41.0, &mut rng));
+        // One that has never seen it counts from the start.
+        let (_, became) = lose_goal(p.clone(), None, &mut rng);
+        assert!(!became);
+        let mut relay = Relay::new(p, &l, vec![Color::Green]);
+        step(
+            &mut relay,
+            &readings(30.0, Some(0.0), None, &l),
+            true,
+            &mut rng,
+        );
+        assert!(step(&mut relay, &lost(30.1, None, &l), true, &mut rng));
     }
 
     #[test]
