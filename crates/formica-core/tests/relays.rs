@@ -155,6 +155,26 @@ fn relays_bring_the_object_round_the_corner() {
 }
 
 #[test]
+fn a_chain_of_relays_reaches_an_object_in_a_closed_compartment() {
+    // Queiroz and MacRae's two-corners map: the object's compartment, below the first wall,
+    // is hidden from everything that sees the goal. Relays must form out of sight of the
+    // object (`relay.blind_after_s`); with that switched off none ever forms and the object
+    // never moves (0 of 50 before).
+    let sc = shipped("qm-two-corners.toml");
+    for seed in [1, 7] {
+        assert_eq!(outcome(&sc, seed), "Success", "seed {seed}");
+    }
+    let text = shipped_text("qm-two-corners.toml").replace(
+        "params = { relays = true }",
+        "params = { relays = true, relay = { blind_after_s = 1e9 } }",
+    );
+    let sc = Scenario::parse(&text, "qm-two-corners.toml").unwrap();
+    let (eps, outcome) = episodes(&sc, 1, 600.0);
+    assert!(eps.is_empty(), "{} relays without blind relays", eps.len());
+    assert_eq!(outcome, None);
+}
+
+#[test]
 fn no_relay_forms_in_the_open_map() {
     let sc = shipped("qm-open.toml");
     for seed in 1..=3 {
