@@ -77,6 +77,10 @@ pub struct Params {
     /// long lost sight of it, while those near the object see it every few seconds. Default
     /// 120; large values switch it off.
     pub blind_after_s: f32,
+    /// A robot that lost the goal behind a wall relays if the object comes into sight (or it
+    /// turns blind) within this many seconds, seeing no goal meanwhile. Default 0: only at
+    /// the moment it loses the goal, as Queiroz and MacRae.
+    pub lost_window_s: f32,
     /// With the goal out of sight, a circling robot pushes only where its colour scan shows
     /// the object within this many scan bins of the goal's last bearing: the object, not a
     /// wall or nothing, is what hides the goal there. Default 1 (the bin toward the goal and
@@ -99,6 +103,7 @@ impl Default for Params {
             progress_m: 0.05,
             needs_object: true,
             blind_after_s: 120.0,
+            lost_window_s: 0.0,
             occlusion_bins: 1.0,
         }
     }
@@ -127,6 +132,7 @@ impl Params {
                 ("relay.timeout_s", self.timeout_s.unwrap_or(0.0)),
                 ("relay.patience_s", self.patience_s.unwrap_or(0.0)),
                 ("relay.blind_after_s", self.blind_after_s),
+                ("relay.lost_window_s", self.lost_window_s),
                 ("relay.progress_m", self.progress_m),
                 ("relay.occlusion_bins", self.occlusion_bins),
             ],
@@ -186,6 +192,8 @@ pub struct Relay {
     wall_was: bool,
     /// When the object was last in sight (s; 0 if never).
     object_seen: f32,
+    /// When a wall last hid the goal from this robot (s), until it sees a goal again.
+    lost: Option<f32>,
 }
 
 impl Relay {
@@ -205,6 +213,7 @@ impl Relay {
             view: View::default(),
             wall_was: false,
             object_seen: 0.0,
+            lost: None,
         }
     }
 
@@ -334,15 +343,19 @@ impl Relay {
             }
             return true;
         }
-        if last_goal.is_none() || goal.is_some() {
+        if goal.is_some() {
+            self.lost = None;
             return false;
+        }
+        if last_goal.is_some() && self.wide && (self.wall_was || !self.p.behind_wall) {
+            self.lost = Some(now);
         }
         let trigger = free
             && now >= self.wait_until
-            && self.wide
-            && (self.wall_was || !self.p.behind_wall)
+            && self.lost.is_some_and(|t| now - t <= self.p.lost_window_s)
             && (object.is_some() || !self.p.needs_object || blind);
         if trigger {
+            self.lost = None;
             self.since = Some(now);
             self.closest = (object.map_or(f32::INFINITY, |(_, gap)| gap), now);
         }
@@ -529,6 +542,28 @@ mod tests {
             &mut rng,
         );
         assert!(step(&mut relay, &lost(30.1, None, &l), true, &mut rng));
+    }
+
+    #[test]
+    fn with_a_window_the_object_may_come_into_sight_after_the_goal_is_lost() {
+        let l = layout();
+        let mut rng = RobotRng::seed_from_u64(8);
+        // Goal lost behind a wall at 1.0 s with the object out of sight; the object shows at
+        // 3.0 s: a relay with a 3 s window, none without.
+        let run = |window: f32, rng: &mut RobotRng| {
+            let p = Params {
+                lost_window_s: window,
+                ..Params::default()
+            };
+            let mut relay = Relay::new(p, &l, vec![Color::Green]);
+            step(&mut relay, &readings(0.9, Some(0.0), None, &l), true, rng);
+            let at_loss = step(&mut relay, &lost(1.0, None, &l), true, rng);
+            step(&mut relay, &readings(2.0, None, None, &l), true, rng);
+            at_loss || step(&mut relay, &readings(3.0, None, Some(3.0), &l), true, rng)
+        };
+        assert!(!run(0.0, &mut rng));
+        assert!(!run(1.5, &mut rng));
+        assert!(run(3.0, &mut rng));
     }
 
     #[test]
