@@ -12,7 +12,8 @@
 //!   it (`behind_wall`: the scan shows a wall, nearer than the goal was, where the goal was)
 //!   and, with `needs_object`, it sees the object now or has not seen it for `blind_after_s`
 //!   (the object is in another compartment: the first relays of a chain toward it form
-//!   where nothing can see it). Queiroz and MacRae's angle test is an
+//!   where nothing can see it); with `lost_window_s`, also if the object comes into sight
+//!   within that many seconds of losing the goal. Queiroz and MacRae's angle test is an
 //!   option (`angle_deg`): the goal-object angle was above it the last time both were in
 //!   sight (true if the goal was seen without the object).
 //! - **A relay** stops and shows `goal_color`. It leaves when its light sensors see the real
@@ -311,7 +312,6 @@ impl Relay {
         if object.is_some() {
             self.object_seen = now;
         }
-        let blind = now - self.object_seen >= self.p.blind_after_s;
         let wide_angle = self.p.angle_deg.to_radians();
         let last_goal = self.last_goal;
         self.last_goal = goal.map(|(g, d)| (wrap_angle(g + r.pose.theta), d));
@@ -350,6 +350,7 @@ impl Relay {
         if last_goal.is_some() && self.wide && (self.wall_was || !self.p.behind_wall) {
             self.lost = Some(now);
         }
+        let blind = now - self.object_seen >= self.p.blind_after_s;
         let trigger = free
             && now >= self.wait_until
             && self.lost.is_some_and(|t| now - t <= self.p.lost_window_s)
