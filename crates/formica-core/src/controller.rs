@@ -3,7 +3,7 @@
 //! A controller sees only its own [`Readings`] and its [`SensorLayout`], and draws randomness
 //! only from the per-robot generator it is handed. It never sees the world.
 
-use crate::geometry::Vec2;
+use crate::geometry::{wrap_angle, Vec2};
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 
@@ -61,6 +61,54 @@ impl Actuation {
     pub fn with_led(mut self, led: Color) -> Self {
         self.led = led;
         self
+    }
+}
+
+/// A complementary filter of a robot's own heading, as a real robot fuses odometry with a noisy
+/// tracker: each tick it predicts with the turn rate its wheels were last told
+/// ([`HeadingFilter::commanded`]) and moves toward the positioning sensor's heading by `gain`.
+/// With independent heading noise of spread s and wheels that do what they are told, the
+/// estimate's spread is s * sqrt(gain / (2 - gain)) (0.41 s at gain 0.3); where the wheels
+/// skid (pushing, attached to a turning object) it follows the tracker within about 1 / gain
+/// ticks. Gain 1 passes the sensor's heading through unchanged.
+#[derive(Debug, Clone)]
+pub struct HeadingFilter {
+    gain: f32,
+    estimate: Option<(f32, f32)>,
+    turn: f32,
+}
+
+impl HeadingFilter {
+    /// A filter that moves `gain` (0 to 1) of the way to each reading.
+    pub fn new(gain: f32) -> Self {
+        Self {
+            gain: gain.clamp(0.0, 1.0),
+            estimate: None,
+            turn: 0.0,
+        }
+    }
+
+    /// The filtered heading (rad) after this tick's reading `measured` at `time_s`.
+    pub fn update(&mut self, measured: f32, time_s: f32) -> f32 {
+        let e = match self.estimate {
+            Some((e, t)) if self.gain < 1.0 => {
+                let predicted = e + self.turn * (time_s - t).max(0.0);
+                wrap_angle(predicted + self.gain * wrap_angle(measured - predicted))
+            }
+            _ => measured,
+        };
+        self.estimate = Some((e, time_s));
+        e
+    }
+
+    /// Tells the filter what the wheels were told this tick (speeds clamped to the model's).
+    pub fn commanded(&mut self, act: &Actuation, layout: &SensorLayout) {
+        let v = |w: f32| w.clamp(-layout.max_speed, layout.max_speed);
+        self.turn = if act.coast || layout.wheel_distance <= 0.0 {
+            0.0
+        } else {
+            (v(act.right) - v(act.left)) / layout.wheel_distance
+        };
     }
 }
 
@@ -335,6 +383,48 @@ mod tests {
     use super::*;
     use crate::geometry::Pose;
     use crate::robot::RobotModel;
+
+    #[test]
+    fn the_heading_filter_narrows_noise_and_follows_commanded_turns() {
+        use rand::SeedableRng;
+        let layout = SensorLayout::of(
+            &RobotModel::khepera4(),
+            &crate::scenario::SensorConfig::default(),
+        );
+        let mut rng = RobotRng::seed_from_u64(3);
+        let mut gauss = crate::noise::Gauss::new(&mut rng);
+        // A robot turning at 0.5 rad/s, as commanded, under heading noise of 0.2 rad: the
+        // estimate's error has spread 0.2 * sqrt(0.3 / 1.7) (within 5 % over 10^5 ticks) and
+        // no bias.
+        let (sd, gain, turn, dt) = (0.2f32, 0.3f32, 0.5f32, 0.1f32);
+        let mut f = HeadingFilter::new(gain);
+        let act = Actuation::from_twist(0.05, turn, &layout);
+        let (mut sum, mut sum2, n) = (0.0f64, 0.0f64, 100_000);
+        for k in 0..n {
+            let t = k as f32 * dt;
+            let truth = crate::geometry::wrap_angle(turn * t);
+            let e = f.update(gauss.angle(truth, sd), t);
+            f.commanded(&act, &layout);
+            if k >= 100 {
+                let err = f64::from(crate::geometry::wrap_angle(e - truth));
+                sum += err;
+                sum2 += err * err;
+            }
+        }
+        let m = (n - 100) as f64;
+        let mean = sum / m;
+        let spread = (sum2 / m - mean * mean).sqrt();
+        let expect = f64::from(sd * (gain / (2.0 - gain)).sqrt());
+        assert!(mean.abs() < 0.01, "bias {mean}");
+        assert!(
+            (spread / expect - 1.0).abs() < 0.05,
+            "spread {spread}, expected {expect}"
+        );
+        // Gain 1 passes the reading through.
+        let mut through = HeadingFilter::new(1.0);
+        assert_eq!(through.update(0.7, 0.0), 0.7);
+        assert_eq!(through.update(-2.0, 0.1), -2.0);
+    }
 
     #[test]
     fn flat_readings_have_a_fixed_layout() {

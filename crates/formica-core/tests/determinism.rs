@@ -76,7 +76,7 @@ const GOLDEN_OCCLUSION: u64 = 0x097a_eda1_f2cc_b0dc;
 /// `filling`: `scenarios/seed-fill-u.toml`, 30 s.
 const GOLDEN_FILLING: u64 = 0xe7cb_0e94_0458_af87;
 /// `fill-transport`: `scenarios/fill-transport-u.toml`, 30 s.
-const GOLDEN_FILL_TRANSPORT: u64 = 0xc124_6bdb_645a_290e;
+const GOLDEN_FILL_TRANSPORT: u64 = 0x23f0_ca1f_43c7_5b85;
 
 fn check_golden(name: &str, constant: &str, golden: u64, (d, json): (u64, String)) {
     assert_eq!(

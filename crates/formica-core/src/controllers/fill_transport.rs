@@ -38,6 +38,12 @@
 //! `"assist"` (the earlier default) estimate the robot's own velocity from its positioning
 //! sensor instead and roll with it.
 //!
+//! **Its own heading, filtered.** Attached robots push, and robots about to attach align, by
+//! comparing their heading with the goal's last seen direction, which is itself the light's
+//! bearing plus the heading: both carry the positioning sensor's heading noise. Each robot fuses
+//! the turn rate it commands with the sensor's heading ([`HeadingFilter`], gain `heading_gain`)
+//! and decides from the estimate, as a real robot fuses odometry with its tracker.
+//!
 //! LEDs: attached robots blue (the fillers' "object" colour), fillers red, pushers red while
 //! pushing and yellow otherwise (never blue, so fillers do not take pushers for the object).
 //! With `relays = true` (sub-goal relays, [`relay`](super::relay)) a pusher that relays shows
@@ -47,7 +53,7 @@
 //! relays formed later are few.
 
 use crate::controller::{
-    parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
+    parse_params, Actuation, AttachCommand, Controller, ControllerFactory, HeadingFilter, RobotRng,
 };
 use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
 use crate::controllers::occlusion::{self, light_contrast, Occlusion};
@@ -168,6 +174,13 @@ pub struct Params {
     /// Sub-goal relays for the pushers (`push.relays`, see the `relay` module); the attached
     /// robots' blue LEDs count as the object. Default false.
     pub relays: bool,
+    /// Gain of the heading filter ([`HeadingFilter`]): the robot fuses its commanded turn rate
+    /// with its positioning sensor's heading, and decides (goal direction, alignment before
+    /// attaching, pushing while attached) from the estimate. 1 uses the sensor's heading as it
+    /// comes (results format 7 and earlier). Default 0.3: on the U with heading noise of
+    /// 0.2 rad, seeds 1-50 and 51-100, 37 and 37 successes at 1, 44 and 47 at 0.3 (0.15: 44,
+    /// but 38 with the preset).
+    pub heading_gain: f32,
 }
 
 impl Default for Params {
@@ -199,6 +212,7 @@ impl Default for Params {
             comply_gain: 1.0,
             comply_push_deg: 0.0,
             relays: false,
+            heading_gain: 0.3,
         }
     }
 }
@@ -229,6 +243,12 @@ pub fn factory(
     let positive = |x: f32| x > 0.0 && x.is_finite();
     if !positive(p.laps) {
         return Err(format!("`laps` must be a positive number, got {}", p.laps));
+    }
+    if !(p.heading_gain > 0.0 && p.heading_gain <= 1.0) {
+        return Err(format!(
+            "`heading_gain` must be above 0 and at most 1, got {}",
+            p.heading_gain
+        ));
     }
     if !(positive(p.stall_s) && positive(p.stall_deg)) {
         return Err(format!(
@@ -420,6 +440,9 @@ pub struct FillTransport {
     /// Whether this tick's dark light ring is not the object's doing (occlusion with memory).
     veto: bool,
     layout: SensorLayout,
+    /// The robot's own heading, filtered, and this tick's readings with it.
+    heading: HeadingFilter,
+    filtered: Readings,
 }
 
 impl FillTransport {
@@ -459,6 +482,8 @@ impl FillTransport {
             seen: Readings::default(),
             veto: false,
             layout: layout.clone(),
+            heading: HeadingFilter::new(p.heading_gain),
+            filtered: Readings::default(),
         }
     }
 
@@ -609,6 +634,23 @@ impl FillTransport {
 
 impl Controller for FillTransport {
     fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
+        let mut f = std::mem::take(&mut self.filtered);
+        f.clone_from(r);
+        f.pose.theta = self.heading.update(r.pose.theta, r.time_s);
+        let act = self.decide(&f, rng);
+        self.filtered = f;
+        self.heading.commanded(&act, &self.layout);
+        act
+    }
+
+    fn state(&self) -> &'static str {
+        self.state_name()
+    }
+}
+
+impl FillTransport {
+    /// This tick's decision from readings `r` (the heading filtered).
+    fn decide(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
         self.filter_light(r);
         if !self.pushing && self.pusher.params().relays {
             // Relays form on the way to the object too: a filler that has not reached it yet
@@ -695,7 +737,7 @@ impl Controller for FillTransport {
         act.with_led(led)
     }
 
-    fn state(&self) -> &'static str {
+    fn state_name(&self) -> &'static str {
         if !self.pushing && self.pusher.is_relay() {
             "relay"
         } else if self.pushing && self.pusher_kind == Pusher::Edge {
