@@ -18,16 +18,30 @@ use std::path::Path;
 /// Width of a gallery picture (px).
 pub const PICTURE_WIDTH: u32 = 320;
 
-/// A path for a report: as given if relative, else the file name only (never a folder of the
-/// machine the report was made on).
+/// A path for a report: as given if relative; if absolute, relative to the working directory
+/// when it lies inside it, else the file name only (never a folder of the machine the report
+/// was made on).
 pub fn shown_path(p: &str) -> String {
+    shown_path_from(p, std::env::current_dir().ok().as_deref())
+}
+
+/// [`shown_path`] with the working directory `cwd`.
+fn shown_path_from(p: &str, cwd: Option<&Path>) -> String {
     let path = Path::new(p);
-    if path.is_absolute() {
-        path.file_name()
-            .map_or_else(|| p.to_string(), |n| n.to_string_lossy().into_owned())
-    } else {
-        p.replace('\\', "/")
+    if !path.is_absolute() {
+        return p.replace('\\', "/");
     }
+    if let Some(rest) = cwd.and_then(|c| path.strip_prefix(c).ok()) {
+        if !rest.as_os_str().is_empty() {
+            let parts: Vec<String> = rest
+                .components()
+                .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                .collect();
+            return parts.join("/");
+        }
+    }
+    path.file_name()
+        .map_or_else(|| p.to_string(), |n| n.to_string_lossy().into_owned())
 }
 
 /// The `## Provenance` section of the report written to `out`.
@@ -300,4 +314,21 @@ fn draw_pictures(db: &Path, trials: &[&StoredTrial], out: &Path) -> Result<Vec<P
         .collect();
     results.extend(drawn);
     Ok(results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn report_paths_never_name_a_folder_outside_the_working_directory() {
+        let cwd = std::env::temp_dir().join("formica-study");
+        let inside = cwd.join("results").join("u");
+        let outside = std::env::temp_dir().join("elsewhere").join("u");
+        let show = |p: &Path| shown_path_from(&p.display().to_string(), Some(&cwd));
+        assert_eq!(show(&inside), "results/u");
+        assert_eq!(show(&outside), "u");
+        assert_eq!(shown_path_from("results/u", Some(&cwd)), "results/u");
+        assert_eq!(shown_path_from("results\\u", None), "results/u");
+    }
 }
