@@ -33,11 +33,7 @@ fn shown_path_from(p: &str, cwd: Option<&Path>) -> String {
     }
     if let Some(rest) = cwd.and_then(|c| path.strip_prefix(c).ok()) {
         if !rest.as_os_str().is_empty() {
-            let parts: Vec<String> = rest
-                .components()
-                .map(|c| c.as_os_str().to_string_lossy().into_owned())
-                .collect();
-            return parts.join("/");
+            return rest.to_string_lossy().replace('\\', "/");
         }
     }
     path.file_name()

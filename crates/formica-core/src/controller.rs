@@ -402,11 +402,11 @@ mod tests {
         let (mut sum, mut sum2, n) = (0.0f64, 0.0f64, 100_000);
         for k in 0..n {
             let t = k as f32 * dt;
-            let truth = crate::geometry::wrap_angle(turn * t);
+            let truth = wrap_angle(turn * t);
             let e = f.update(gauss.angle(truth, sd), t);
             f.commanded(&act, &layout);
             if k >= 100 {
-                let err = f64::from(crate::geometry::wrap_angle(e - truth));
+                let err = f64::from(wrap_angle(e - truth));
                 sum += err;
                 sum2 += err * err;
             }

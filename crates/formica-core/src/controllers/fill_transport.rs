@@ -435,14 +435,13 @@ pub struct FillTransport {
     pushing_now: bool,
     hidden_since: Option<f32>,
     visible_since: Option<f32>,
-    /// Readings handed to the pusher (the robot's own).
+    /// This tick's readings with the filtered heading (a buffer reused every tick).
     seen: Readings,
     /// Whether this tick's dark light ring is not the object's doing (occlusion with memory).
     veto: bool,
     layout: SensorLayout,
-    /// The robot's own heading, filtered, and this tick's readings with it.
+    /// The robot's own heading, filtered.
     heading: HeadingFilter,
-    filtered: Readings,
 }
 
 impl FillTransport {
@@ -483,7 +482,6 @@ impl FillTransport {
             veto: false,
             layout: layout.clone(),
             heading: HeadingFilter::new(p.heading_gain),
-            filtered: Readings::default(),
         }
     }
 
@@ -498,7 +496,6 @@ impl FillTransport {
     /// is not between the robot and that direction, tells the pusher that the goal is not
     /// hidden by the object.
     fn filter_light(&mut self, r: &Readings) {
-        self.seen.clone_from(r);
         self.veto = false;
         let threshold = self.pusher.params().lit_contrast;
         if let Some(b) = filling::light_bearing(r, &self.layout, threshold) {
@@ -575,8 +572,7 @@ impl FillTransport {
 
     /// The `edge` pusher: follow the pseudo object's edge; where the goal is hidden by it,
     /// push toward its centre.
-    fn edge_push(&mut self, rng: &mut RobotRng) -> Actuation {
-        let r = &self.seen;
+    fn edge_push(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
         let now = r.time_s;
         let hidden = !r.light.is_empty()
             && !self.veto
@@ -625,20 +621,18 @@ impl FillTransport {
             }
             self.pushing_now = false;
         }
-        let seen = std::mem::take(&mut self.seen);
-        let act = self.filler.step_guided(&seen, rng, target, centre);
-        self.seen = seen;
+        let act = self.filler.step_guided(r, rng, target, centre);
         act.with_led(Color::Yellow)
     }
 }
 
 impl Controller for FillTransport {
     fn step(&mut self, r: &Readings, rng: &mut RobotRng) -> Actuation {
-        let mut f = std::mem::take(&mut self.filtered);
-        f.clone_from(r);
-        f.pose.theta = self.heading.update(r.pose.theta, r.time_s);
-        let act = self.decide(&f, rng);
-        self.filtered = f;
+        let mut seen = std::mem::take(&mut self.seen);
+        seen.clone_from(r);
+        seen.pose.theta = self.heading.update(r.pose.theta, r.time_s);
+        let act = self.decide(&seen, rng);
+        self.seen = seen;
         self.heading.commanded(&act, &self.layout);
         act
     }
@@ -721,12 +715,12 @@ impl FillTransport {
             self.pusher.set_object_reach(reach);
         }
         if self.pusher_kind == Pusher::Edge {
-            return self.edge_push(rng);
+            return self.edge_push(r, rng);
         }
         if self.veto {
             self.pusher.veto_hidden();
         }
-        let act = self.pusher.step(&self.seen, rng);
+        let act = self.pusher.step(r, rng);
         let led = if self.pusher.is_relay() {
             act.led
         } else if self.pusher.is_pushing() {
