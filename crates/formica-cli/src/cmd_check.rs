@@ -115,6 +115,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
             "  stop: success within {r:.3} m of the goal; wall: {}",
             s.stop.on_wall
         );
+        if let Some(warning) = goal_reached_warning(w, r) {
+            outln!("    warning: {warning}");
+        }
     }
     Ok(())
 }
@@ -149,6 +152,21 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
         p.object_reach,
         radius + 0.2
     ))
+}
+
+/// A warning if the target object starts within `radius` of the goal: every run of the file
+/// would succeed on its first tick, with nothing transported.
+fn goal_reached_warning(w: &World, radius: f32) -> Option<String> {
+    let (t, goal) = (w.target?, w.goal()?);
+    let d = (w.object_center(t) - goal).length();
+    (d <= radius && w.objects[t].movable).then(|| {
+        format!(
+            "object {t} \"{}\" starts {d:.2} m from the goal, within the success radius \
+             ({radius:.2} m): every run succeeds at once, with nothing moved (move the goal \
+             light or the object, or set stop.goal_radius)",
+            w.objects[t].name
+        )
+    })
 }
 
 /// Warnings `formica run` prints too: set-ups under which a run cannot do what it is meant to

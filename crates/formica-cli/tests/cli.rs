@@ -336,6 +336,29 @@ fn check_warns_when_occlusion_cannot_reach_round_the_object() {
 }
 
 #[test]
+fn check_warns_when_the_object_starts_at_the_goal() {
+    // seed-transport's box starts 3.5 m from the goal light; with the light moved onto the
+    // box every run would succeed on its first tick, and check says so.
+    let text = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
+    let dir = tmp("goal-at-start");
+    let check = |text: String| {
+        let f = dir.join("t.toml");
+        std::fs::write(&f, text).unwrap();
+        let out = formica().arg("check").arg(&f).output().unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let fine = check(text.clone());
+    assert!(!fine.contains("succeeds at once"), "{fine}");
+    assert!(text.contains("at = [2.5, 0.0]"));
+    let at_goal = check(text.replacen("at = [2.5, 0.0]", "at = [-1.0, 0.1]", 1));
+    assert!(
+        at_goal.contains("starts 0.10 m from the goal") && at_goal.contains("succeeds at once"),
+        "{at_goal}"
+    );
+}
+
+#[test]
 fn check_warns_when_the_camera_goal_has_no_goal_colour() {
     // Relays (and goal_sensor = "camera") see the goal in relay.goal_color (cyan): a goal light
     // without that colour is never seen, so check says which key to set. The shipped qm maps
