@@ -50,6 +50,8 @@ use crate::geometry::{Pose, Vec2};
 use crate::robot::RobotModel;
 use friction::{hold_box, Footprint, Twist};
 use rapier2d::math::Rotation;
+use rapier2d::parry;
+use rapier2d::parry::query::DefaultQueryDispatcher;
 use rapier2d::prelude::*;
 
 /// Standard gravity, for floor friction (m/s^2).
@@ -399,6 +401,120 @@ fn direction_or(v: Vec2, fallback: Vec2) -> Vec2 {
     }
 }
 
+/// rapier's contact queries, with each pair's list of contact manifolds trimmed to what it
+/// holds. A new pair's first manifold grows the list to room for four (Rust's smallest growth),
+/// and most pairs (disc against disc or polygon) only ever hold one: about 1 KiB per pair, a
+/// third of a robot's memory in a crowd. Contacts are exactly rapier's.
+struct TrimmedManifolds;
+
+impl parry::query::QueryDispatcher for TrimmedManifolds {
+    fn intersection_test(
+        &self,
+        pos12: &parry::math::Pose,
+        g1: &dyn parry::shape::Shape,
+        g2: &dyn parry::shape::Shape,
+    ) -> Result<parry::query::ShapeIntersection, parry::query::Unsupported> {
+        DefaultQueryDispatcher.intersection_test(pos12, g1, g2)
+    }
+    fn distance(
+        &self,
+        pos12: &parry::math::Pose,
+        g1: &dyn parry::shape::Shape,
+        g2: &dyn parry::shape::Shape,
+    ) -> Result<parry::query::ShapeDistance, parry::query::Unsupported> {
+        DefaultQueryDispatcher.distance(pos12, g1, g2)
+    }
+    fn contact(
+        &self,
+        pos12: &parry::math::Pose,
+        g1: &dyn parry::shape::Shape,
+        g2: &dyn parry::shape::Shape,
+        prediction: f32,
+    ) -> Result<Option<parry::query::Contact>, parry::query::Unsupported> {
+        DefaultQueryDispatcher.contact(pos12, g1, g2, prediction)
+    }
+    fn closest_points(
+        &self,
+        pos12: &parry::math::Pose,
+        g1: &dyn parry::shape::Shape,
+        g2: &dyn parry::shape::Shape,
+        max_dist: f32,
+    ) -> Result<parry::query::ClosestPoints, parry::query::Unsupported> {
+        DefaultQueryDispatcher.closest_points(pos12, g1, g2, max_dist)
+    }
+    fn cast_shapes(
+        &self,
+        pos12: &parry::math::Pose,
+        local_vel12: parry::math::Vector,
+        g1: &dyn parry::shape::Shape,
+        g2: &dyn parry::shape::Shape,
+        options: parry::query::ShapeCastOptions,
+    ) -> Result<Option<parry::query::ShapeCastHit>, parry::query::Unsupported> {
+        DefaultQueryDispatcher.cast_shapes(pos12, local_vel12, g1, g2, options)
+    }
+    fn cast_shapes_nonlinear(
+        &self,
+        motion1: &parry::query::NonlinearRigidMotion,
+        g1: &dyn parry::shape::Shape,
+        motion2: &parry::query::NonlinearRigidMotion,
+        g2: &dyn parry::shape::Shape,
+        start_time: f32,
+        end_time: f32,
+        stop_at_penetration: bool,
+    ) -> Result<Option<parry::query::ShapeCastHit>, parry::query::Unsupported> {
+        DefaultQueryDispatcher.cast_shapes_nonlinear(
+            motion1,
+            g1,
+            motion2,
+            g2,
+            start_time,
+            end_time,
+            stop_at_penetration,
+        )
+    }
+}
+
+impl parry::query::PersistentQueryDispatcher<ContactManifoldData, ContactData>
+    for TrimmedManifolds
+{
+    fn contact_manifolds(
+        &self,
+        pos12: &parry::math::Pose,
+        g1: &dyn parry::shape::Shape,
+        g2: &dyn parry::shape::Shape,
+        prediction: f32,
+        manifolds: &mut Vec<ContactManifold>,
+        workspace: &mut Option<parry::query::ContactManifoldsWorkspace>,
+    ) -> Result<(), parry::query::Unsupported> {
+        let r = DefaultQueryDispatcher
+            .contact_manifolds(pos12, g1, g2, prediction, manifolds, workspace);
+        if manifolds.capacity() > manifolds.len().max(1) {
+            manifolds.shrink_to(manifolds.len().max(1));
+        }
+        r
+    }
+    fn contact_manifold_convex_convex(
+        &self,
+        pos12: &parry::math::Pose,
+        g1: &dyn parry::shape::Shape,
+        g2: &dyn parry::shape::Shape,
+        normal_constraints1: Option<&dyn parry::query::details::NormalConstraints>,
+        normal_constraints2: Option<&dyn parry::query::details::NormalConstraints>,
+        prediction: f32,
+        manifold: &mut ContactManifold,
+    ) -> Result<(), parry::query::Unsupported> {
+        DefaultQueryDispatcher.contact_manifold_convex_convex(
+            pos12,
+            g1,
+            g2,
+            normal_constraints1,
+            normal_constraints2,
+            prediction,
+            manifold,
+        )
+    }
+}
+
 /// A joint frame at `origin` whose x axis is the unit vector `axis`.
 fn frame(origin: Vec2, axis: Vec2) -> rapier2d::math::Pose {
     rapier2d::math::Pose::from_parts(origin, Rotation::from_cos_sin_unchecked(axis.x, axis.y))
@@ -407,7 +523,15 @@ fn frame(origin: Vec2, axis: Vec2) -> rapier2d::math::Pose {
 impl Physics {
     /// An empty world stepping `dt` seconds per call to [`Physics::step`].
     pub fn new(dt: f32) -> Self {
+        Self::with_capacity(dt, 0)
+    }
+
+    /// As [`Physics::new`], with room for `bodies` bodies and as many colliders made at once
+    /// (a growing set would double its room, and hold up to twice what it needs).
+    pub fn with_capacity(dt: f32, bodies: usize) -> Self {
         let mut world = PhysicsWorld::new();
+        world.bodies = RigidBodySet::with_capacity(bodies + 1);
+        world.colliders = ColliderSet::with_capacity(bodies);
         world.gravity = Vec2::ZERO;
         world.integration_parameters.dt = dt;
         world.integration_parameters.num_solver_iterations = DEFAULT_SOLVER_ITERATIONS;
@@ -415,6 +539,7 @@ impl Physics {
         // a robot passing a corner would be pushed off (or stopped) by a contact that is no
         // longer there (issue 10's ghost contacts). Recompute contacts every step.
         world.integration_parameters.contact_recycling = false;
+        world.narrow_phase = NarrowPhase::with_query_dispatcher(TrimmedManifolds);
         let ground = world.bodies.insert(RigidBodyBuilder::fixed());
         Self {
             world,

@@ -130,7 +130,6 @@ pub struct Robot {
     controller: Box<dyn Controller>,
     rng: RobotRng,
     sense_rng: RobotRng,
-    scratch: Scratch,
 }
 
 /// Options that override what a scenario file says.
@@ -185,6 +184,8 @@ pub struct World {
     /// Per light, the walls and objects by direction (with many fixtures only).
     shadows: Vec<Shadows>,
     buffers: SenseBuffers,
+    /// Sensing's scratch space, one per worker thread.
+    scratch: Vec<Scratch>,
     /// Threads for sensing and control (`None`: this thread only).
     pool: Option<Arc<rayon::ThreadPool>>,
     /// Time spent in each part of the tick, when measured ([`World::measure_time`]).
@@ -246,24 +247,51 @@ fn for_each_robot(
     robots: &mut [Robot],
     f: impl Fn(usize, &mut Robot) + Sync + Send,
 ) {
-    let Some(pool) = pool.filter(|_| robots.len() > ROBOTS_PER_CHUNK) else {
-        robots.iter_mut().enumerate().for_each(|(i, r)| f(i, r));
+    let mut none = [(); MAX_WORKERS];
+    for_each_robot_with(pool, robots, &mut none, |i, r, _| f(i, r));
+}
+
+/// Most workers [`for_each_robot_with`] runs at once: the caller and the pool's threads.
+const MAX_WORKERS: usize = 257;
+
+/// As [`for_each_robot`], with a working state per worker (`states[k]` for the k-th worker;
+/// at least one state, and one per pool thread and the caller to use them all). What a state
+/// holds between robots must not change any robot's result (scratch space).
+fn for_each_robot_with<S: Send>(
+    pool: Option<&rayon::ThreadPool>,
+    robots: &mut [Robot],
+    states: &mut [S],
+    f: impl Fn(usize, &mut Robot, &mut S) + Sync + Send,
+) {
+    let workers = pool
+        .map_or(1, |p| p.current_num_threads() + 1)
+        .min(states.len());
+    let (Some(pool), true) = (pool, workers > 1 && robots.len() > ROBOTS_PER_CHUNK) else {
+        let Some(state) = states.first_mut() else {
+            return;
+        };
+        robots
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, r)| f(i, r, state));
         return;
     };
     let chunks = std::sync::Mutex::new(robots.chunks_mut(ROBOTS_PER_CHUNK).enumerate());
-    let work = || loop {
+    let work = |state: &mut S| loop {
         // A panic in `f` poisons nothing that matters here: the iterator stays valid.
         let next = chunks.lock().unwrap_or_else(|e| e.into_inner()).next();
         let Some((c, chunk)) = next else { break };
         for (k, r) in chunk.iter_mut().enumerate() {
-            f(c * ROBOTS_PER_CHUNK + k, r);
+            f(c * ROBOTS_PER_CHUNK + k, r, state);
         }
     };
+    let work = &work;
+    let (mine, theirs) = states[..workers].split_at_mut(1);
     pool.in_place_scope(|s| {
-        for _ in 0..pool.current_num_threads() {
-            s.spawn(|_| work());
+        for state in theirs.iter_mut() {
+            s.spawn(move |_| work(state));
         }
-        work();
+        work(&mut mine[0]);
     });
 }
 
@@ -290,7 +318,15 @@ impl World {
         let seed = ov.seed.unwrap_or(spec.run.seed);
         let tick_s = 1.0 / spec.run.tick_hz;
         let substeps = sc.max_substeps();
-        let mut physics = Physics::new(tick_s / substeps as f32);
+        let bodies = sc.robot_count()
+            + spec
+                .objects
+                .iter()
+                .map(|o| o.get_ref().parts.len().max(1))
+                .sum::<usize>()
+            + spec.walls.len()
+            + 4;
+        let mut physics = Physics::with_capacity(tick_s / substeps as f32, bodies);
         let smallest_radius = sc.speed_and_radius().map_or(0.0, |(_, r)| r);
 
         // Arena walls, centred on the border of the usable area.
@@ -383,7 +419,7 @@ impl World {
 
         // Robot groups and placement.
         let mut groups = Vec::new();
-        let mut robots: Vec<Robot> = Vec::new();
+        let mut robots: Vec<Robot> = Vec::with_capacity(sc.robot_count());
         let mut place_rng = rng_stream(seed, 0, 0);
         let largest_radius = spec
             .robots
@@ -443,7 +479,6 @@ impl World {
                     controller: factory.make(),
                     rng: rng_stream(seed, 1, idx as u64),
                     sense_rng: rng_stream(seed, 2, idx as u64),
-                    scratch: Scratch::default(),
                 });
             }
             groups.push(Group {
@@ -482,6 +517,7 @@ impl World {
             beacons: Beacons::default(),
             shadows: Vec::new(),
             buffers: SenseBuffers::default(),
+            scratch: Vec::new(),
             pool: None,
             timing: None,
             light_paths,
@@ -711,8 +747,9 @@ impl World {
     }
 
     /// Computes every released robot's readings (in parallel over robots with a thread pool;
-    /// each robot reads only shared state and writes only its own readings, scratch and noise
-    /// generator, so the result does not depend on the number of threads).
+    /// each robot reads only shared state and writes only its own readings and noise generator,
+    /// with its worker's scratch space, cleared before use, so the result does not depend on
+    /// the number of threads).
     fn sense(&mut self) {
         self.physics.rebuild_index();
         // With many walls and objects, each light's occlusion test asks only those in the
@@ -788,24 +825,34 @@ impl World {
             .map(|g| (&g.model, g.factory.needs, &g.sensors))
             .collect();
         let time = self.time_s as f32;
-        for_each_robot(self.pool.as_deref(), robots, |i, r| {
-            let Some(body) = r.body else { return };
-            let (model, needs, cfg) = specs[r.group];
-            let pose = physics.pose(body);
-            r.readings.time_s = time;
-            r.readings.attached = r.attached.is_some();
-            sense(
-                &ctx,
-                model,
-                needs,
-                cfg,
-                Tag::Robot(i),
-                pose,
-                &mut r.scratch,
-                &mut r.sense_rng,
-                &mut r.readings,
-            );
-        });
+        let workers = self
+            .pool
+            .as_ref()
+            .map_or(1, |p| p.current_num_threads() + 1);
+        self.scratch.resize_with(workers, Scratch::default);
+        for_each_robot_with(
+            self.pool.as_deref(),
+            robots,
+            &mut self.scratch,
+            |i, r, scratch| {
+                let Some(body) = r.body else { return };
+                let (model, needs, cfg) = specs[r.group];
+                let pose = physics.pose(body);
+                r.readings.time_s = time;
+                r.readings.attached = r.attached.is_some();
+                sense(
+                    &ctx,
+                    model,
+                    needs,
+                    cfg,
+                    Tag::Robot(i),
+                    pose,
+                    scratch,
+                    &mut r.sense_rng,
+                    &mut r.readings,
+                );
+            },
+        );
     }
 
     /// Runs every released robot's controller, then each group's batch controller.
