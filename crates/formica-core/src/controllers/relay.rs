@@ -21,7 +21,8 @@
 //!   of its body, when the object has come no closer by `progress_m` for `patience_s` (a relay
 //!   the object does not follow misleads), or after `timeout_s`; then it may not relay again
 //!   for a random 0 to `wait_s` seconds.
-//! - **Approaching** the object needs both the object and a goal in sight ([`Relay::gate`]).
+//! - **Approaching** the object needs both the object and a goal in sight ([`Relay::gate`]);
+//!   with `gate_memory_s`, a goal seen within that many seconds will do.
 //! - **Pushing**: with no goal in sight, a circling robot pushes only where the colour scan
 //!   shows the object toward where it last saw the goal ([`Relay::object_hides`]): behind a
 //!   wall, or facing a dissolved relay's empty place, it keeps circling.
@@ -88,6 +89,10 @@ pub struct Params {
     /// its neighbours). 0 uses `occluder_angle_deg` instead (the angle between the goal and
     /// the object's nearest surface point, which also counts a goal hidden by a wall).
     pub occlusion_bins: f32,
+    /// A free robot approaches the object if it sees it and has seen a goal (the real one or
+    /// a relay) within this many seconds. Default 0: only with a goal in sight now, as Queiroz
+    /// and MacRae.
+    pub gate_memory_s: f32,
 }
 
 impl Default for Params {
@@ -106,6 +111,7 @@ impl Default for Params {
             blind_after_s: 120.0,
             lost_window_s: 0.0,
             occlusion_bins: 1.0,
+            gate_memory_s: 0.0,
         }
     }
 }
@@ -136,6 +142,7 @@ impl Params {
                 ("relay.lost_window_s", self.lost_window_s),
                 ("relay.progress_m", self.progress_m),
                 ("relay.occlusion_bins", self.occlusion_bins),
+                ("relay.gate_memory_s", self.gate_memory_s),
             ],
         )
     }
@@ -195,6 +202,8 @@ pub struct Relay {
     object_seen: f32,
     /// When a wall last hid the goal from this robot (s), until it sees a goal again.
     lost: Option<f32>,
+    /// When a goal was last in sight (s), and the time now.
+    goal_at: (f32, f32),
 }
 
 impl Relay {
@@ -215,6 +224,7 @@ impl Relay {
             wall_was: false,
             object_seen: 0.0,
             lost: None,
+            goal_at: (f32::NEG_INFINITY, 0.0),
         }
     }
 
@@ -252,7 +262,9 @@ impl Relay {
             .map(|((_, d), a)| (*a, (d - self.radius).max(0.0)));
         if let Some((b, d)) = goal {
             self.goal_mem = Some(r.pose.position() + ops::unit(r.pose.theta + b) * d);
+            self.goal_at.0 = r.time_s;
         }
+        self.goal_at.1 = r.time_s;
         self.view = View { goal, object };
     }
 
@@ -287,9 +299,12 @@ impl Relay {
         (d.length() > 0.02).then(|| ops::angle_of(d))
     }
 
-    /// Whether a free robot may approach the object: it sees both the object and a goal.
+    /// Whether a free robot may approach the object: it sees the object, and a goal now (or
+    /// within `gate_memory_s`).
     pub fn gate(&self) -> bool {
-        self.view.goal.is_some() && self.view.object.is_some()
+        let (seen, now) = self.goal_at;
+        let goal = self.view.goal.is_some() || now - seen <= self.p.gate_memory_s;
+        goal && self.view.object.is_some()
     }
 
     /// Whether the robot is a relay.
@@ -637,5 +652,49 @@ mod tests {
         };
         let relay = Relay::new(p, &l, vec![Color::Green]);
         assert_eq!(relay.object_hides(&r, &l, 0.0), None);
+    }
+
+    #[test]
+    fn the_gate_remembers_a_goal_for_gate_memory_s() {
+        let l = layout();
+        let mut rng = RobotRng::seed_from_u64(3);
+        for (memory, open_at_20s, open_at_45s) in [(0.0, false, false), (30.0, true, false)] {
+            let p = Params {
+                gate_memory_s: memory,
+                ..Params::default()
+            };
+            let mut relay = Relay::new(p, &l, vec![Color::Green]);
+            // Goal and object in sight at 10 s: the gate is open.
+            step(
+                &mut relay,
+                &readings(10.0, Some(0.0), Some(3.0), &l),
+                false,
+                &mut rng,
+            );
+            assert!(relay.gate());
+            // The goal out of sight since, the object still in sight.
+            step(
+                &mut relay,
+                &readings(20.0, None, Some(3.0), &l),
+                false,
+                &mut rng,
+            );
+            assert_eq!(relay.gate(), open_at_20s, "memory {memory} at 20 s");
+            step(
+                &mut relay,
+                &readings(45.0, None, Some(3.0), &l),
+                false,
+                &mut rng,
+            );
+            assert_eq!(relay.gate(), open_at_45s, "memory {memory} at 45 s");
+            // Never without the object in sight.
+            step(
+                &mut relay,
+                &readings(46.0, Some(0.0), None, &l),
+                false,
+                &mut rng,
+            );
+            assert!(!relay.gate());
+        }
     }
 }
