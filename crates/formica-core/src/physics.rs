@@ -1512,16 +1512,26 @@ impl Physics {
     pub fn disc_overlaps(&self, center: Vec2, radius: f32) -> Option<Tag> {
         let ball = Ball::new(radius);
         let pose = rapier2d::math::Pose::from_translation(center);
-        self.world.colliders.iter().find_map(|(_, c)| {
+        self.colliders().find_map(|c| {
             rapier2d::parry::query::intersection_test(&pose, &ball, c.position(), c.shape())
                 .is_ok_and(|r| r.intersecting)
                 .then(|| Tag::decode(c.user_data))
         })
     }
 
+    /// Every collider: walls and objects in insertion order, then robots. (Not rapier's
+    /// collider set: it is made with room for the robots still to come, and walking it would
+    /// visit every empty slot.)
+    fn colliders(&self) -> impl Iterator<Item = &Collider> {
+        self.fixtures
+            .iter()
+            .chain(self.robots.iter().map(|(n, _)| n))
+            .filter_map(|n| self.world.colliders.get(n.collider))
+    }
+
     /// The first collider that `shape` at `pose` intersects, if any.
     pub fn shape_overlaps(&self, shape: &SharedShape, pose: rapier2d::math::Pose) -> Option<Tag> {
-        self.world.colliders.iter().find_map(|(_, c)| {
+        self.colliders().find_map(|c| {
             rapier2d::parry::query::intersection_test(&pose, &**shape, c.position(), c.shape())
                 .is_ok_and(|r| r.intersecting)
                 .then(|| Tag::decode(c.user_data))
