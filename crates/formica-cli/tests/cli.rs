@@ -7,6 +7,15 @@ fn tmp(name: &str) -> std::path::PathBuf {
     common::tmp("cli", name)
 }
 
+/// `formica check` on `text` written to `dir/scenario.toml`: it must succeed; its output.
+fn check_text(dir: &std::path::Path, text: &str) -> String {
+    let f = dir.join("scenario.toml");
+    std::fs::write(&f, text).unwrap();
+    let out = formica().arg("check").arg(&f).output().unwrap();
+    assert!(out.status.success());
+    String::from_utf8(out.stdout).unwrap()
+}
+
 #[test]
 fn every_shipped_scenario_checks() {
     for entry in std::fs::read_dir(repo("scenarios")).unwrap() {
@@ -319,11 +328,7 @@ fn check_warns_when_occlusion_cannot_reach_round_the_object() {
             "controller = \"fill-transport\"",
             &format!("controller = \"occlusion\"\nparams = {{ {params} }}"),
         );
-        let f = dir.join("u.toml");
-        std::fs::write(&f, text).unwrap();
-        let out = formica().arg("check").arg(&f).output().unwrap();
-        assert!(out.status.success());
-        String::from_utf8(out.stdout).unwrap()
+        check_text(&dir, &text)
     };
     let short = check("");
     assert!(
@@ -341,13 +346,7 @@ fn check_warns_when_the_object_starts_at_the_goal() {
     // box every run would succeed on its first tick, and check says so.
     let text = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
     let dir = tmp("goal-at-start");
-    let check = |text: String| {
-        let f = dir.join("t.toml");
-        std::fs::write(&f, text).unwrap();
-        let out = formica().arg("check").arg(&f).output().unwrap();
-        assert!(out.status.success());
-        String::from_utf8(out.stdout).unwrap()
-    };
+    let check = |text: String| check_text(&dir, &text);
     let fine = check(text.clone());
     assert!(!fine.contains("succeeds at once"), "{fine}");
     assert!(text.contains("at = [2.5, 0.0]"));
@@ -364,13 +363,7 @@ fn check_warns_when_the_camera_goal_has_no_goal_colour() {
     // without that colour is never seen, so check says which key to set. The shipped qm maps
     // colour their goal and get no warning.
     let dir = tmp("goal-colour");
-    let check = |text: String| {
-        let f = dir.join("m.toml");
-        std::fs::write(&f, text).unwrap();
-        let out = formica().arg("check").arg(&f).output().unwrap();
-        assert!(out.status.success());
-        String::from_utf8(out.stdout).unwrap()
-    };
+    let check = |text: String| check_text(&dir, &text);
     let qm = std::fs::read_to_string(repo("scenarios/qm-open.toml")).unwrap();
     let coloured = check(qm.clone());
     assert!(!coloured.contains("warning"), "{coloured}");

@@ -247,12 +247,14 @@ fn for_each_robot(
     robots: &mut [Robot],
     f: impl Fn(usize, &mut Robot) + Sync + Send,
 ) {
-    let mut none = [(); MAX_WORKERS];
+    let mut none = vec![(); workers(pool)];
     for_each_robot_with(pool, robots, &mut none, |i, r, _| f(i, r));
 }
 
-/// Most workers [`for_each_robot_with`] runs at once: the caller and the pool's threads.
-const MAX_WORKERS: usize = 257;
+/// How many workers [`for_each_robot_with`] runs at once: the caller and the pool's threads.
+fn workers(pool: Option<&rayon::ThreadPool>) -> usize {
+    pool.map_or(1, |p| p.current_num_threads() + 1)
+}
 
 /// As [`for_each_robot`], with a working state per worker (`states[k]` for the k-th worker;
 /// at least one state, and one per pool thread and the caller to use them all). What a state
@@ -263,9 +265,7 @@ fn for_each_robot_with<S: Send>(
     states: &mut [S],
     f: impl Fn(usize, &mut Robot, &mut S) + Sync + Send,
 ) {
-    let workers = pool
-        .map_or(1, |p| p.current_num_threads() + 1)
-        .min(states.len());
+    let workers = workers(pool).min(states.len());
     let (Some(pool), true) = (pool, workers > 1 && robots.len() > ROBOTS_PER_CHUNK) else {
         let Some(state) = states.first_mut() else {
             return;
@@ -588,9 +588,7 @@ impl World {
 
     /// Threads sensing and control run on.
     pub fn threads(&self) -> usize {
-        self.pool
-            .as_ref()
-            .map_or(1, |p| p.current_num_threads() + 1)
+        workers(self.pool.as_deref())
     }
 
     /// Chooses this tick's physics steps (fixed, or enough for the fastest body or wheel
@@ -825,11 +823,8 @@ impl World {
             .map(|g| (&g.model, g.factory.needs, &g.sensors))
             .collect();
         let time = self.time_s as f32;
-        let workers = self
-            .pool
-            .as_ref()
-            .map_or(1, |p| p.current_num_threads() + 1);
-        self.scratch.resize_with(workers, Scratch::default);
+        self.scratch
+            .resize_with(workers(self.pool.as_deref()), Scratch::default);
         for_each_robot_with(
             self.pool.as_deref(),
             robots,
