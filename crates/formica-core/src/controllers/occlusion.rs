@@ -574,15 +574,10 @@ impl Occlusion {
         let range = self.layout.proximity_range;
         match self.p.perception {
             Perception::Camera => {
-                let seen = r
-                    .scan_color
-                    .iter()
-                    .zip(&r.scan_range)
-                    .zip(&self.layout.scan_angles)
-                    .filter(|((c, _), _)| **c == self.p.object_color)
-                    .min_by(|a, b| a.0 .1.total_cmp(b.0 .1));
-                let surface = seen.map(|((_, d), a)| Surface {
-                    bearing: *a,
+                let object = self.p.object_color;
+                let seen = nearest_in_scan(r, &self.layout.scan_angles, |c| c == object);
+                let surface = seen.map(|(a, d)| Surface {
+                    bearing: a,
                     gap: (d - self.layout.radius).max(0.0),
                 });
                 // Proximity hits off the object's direction, or nearer or farther than its surface (a
@@ -870,6 +865,39 @@ impl GoalFix {
 
 /// Proximity readings at or below this are taken as nothing (the sensors' noise floor).
 pub const NOISE_FLOOR: f32 = 0.03;
+
+/// The nearest thing the colour scan shows in a colour `wanted` accepts: its bearing (robot
+/// frame, rad) and range (m). The scan's ranges are coarse (`scan_step`), so a flat face
+/// near the robot reads the same range over several neighbouring bins; the bearing is the
+/// middle of that run of equally near bins, not its first bin, which would pull every estimate
+/// the same way round (counter-clockwise from the robot's heading) and make robots going
+/// round one way see the object differently from those going the other way. `None` if no bin
+/// shows such a colour.
+pub fn nearest_in_scan(
+    r: &Readings,
+    angles: &[f32],
+    wanted: impl Fn(Color) -> bool,
+) -> Option<(f32, f32)> {
+    let n = r.scan_color.len().min(r.scan_range.len()).min(angles.len());
+    let hit = |i: usize| wanted(r.scan_color[i]);
+    let first = (0..n)
+        .filter(|&i| hit(i))
+        .min_by(|&a, &b| r.scan_range[a].total_cmp(&r.scan_range[b]))?;
+    let d = r.scan_range[first];
+    let tie = |i: usize| hit(i) && r.scan_range[i] <= d;
+    // The run of equally near bins round `first`, at most the whole ring.
+    let mut back = 0;
+    while back + 1 < n && tie((first + n - back - 1) % n) {
+        back += 1;
+    }
+    let mut ahead = 0;
+    while back + ahead + 1 < n && tie((first + ahead + 1) % n) {
+        ahead += 1;
+    }
+    let step = std::f32::consts::TAU / n as f32;
+    let bearing = wrap_angle(angles[first] + (ahead as f32 - back as f32) * 0.5 * step);
+    Some((bearing, d))
+}
 
 /// Whether a colour the scan shows is a robot's (an LED, or an unlit body), not the object
 /// (`object`), a wall, or nothing.
@@ -1207,6 +1235,68 @@ mod tests {
                 (a.right - a.left) / layout.wheel_distance
             })
             .collect()
+    }
+
+    /// The scan of a flat object face whose inward normal lies at `normal` (robot frame),
+    /// `gap` from the body, ranges rounded to the preset's 2 cm as the sensor gives them.
+    fn flat_face_scan(layout: &crate::sensors::SensorLayout, normal: f32, gap: f32) -> Readings {
+        let dist = layout.radius + gap;
+        let (scan_color, scan_range) = layout
+            .scan_angles
+            .iter()
+            .map(|a| {
+                let c = ops::cos(wrap_angle(a - normal));
+                let d = if c > 0.0 { dist / c } else { f32::INFINITY };
+                if d <= layout.scan_range {
+                    (Color::Green, (d / 0.02).round() * 0.02)
+                } else {
+                    (Color::Off, layout.scan_range)
+                }
+            })
+            .unzip();
+        Readings {
+            scan_color,
+            scan_range,
+            ..Readings::default()
+        }
+    }
+
+    #[test]
+    fn the_scan_finds_a_flat_face_where_it_is_whichever_side_it_lies() {
+        let layout = crate::sensors::SensorLayout::of(
+            &RobotModel::khepera4(),
+            &crate::scenario::SensorConfig::default(),
+        );
+        let half_bin = PI / layout.scan_angles.len() as f32;
+        for k in -36..36 {
+            // Normals on and between bins, all the way round.
+            let normal = k as f32 * 0.087 + 0.01;
+            for gap in [0.0, 0.03, 0.06] {
+                let green = |c: Color| c == Color::Green;
+                let (b, _) = nearest_in_scan(
+                    &flat_face_scan(&layout, normal, gap),
+                    &layout.scan_angles,
+                    green,
+                )
+                .unwrap();
+                assert!(
+                    wrap_angle(b - normal).abs() <= half_bin + 1e-4,
+                    "normal {normal}, gap {gap}: bearing {b}"
+                );
+                // The mirror image reads the mirror bearing: going round either way, a robot
+                // sees the object alike.
+                let (m, _) = nearest_in_scan(
+                    &flat_face_scan(&layout, -normal, gap),
+                    &layout.scan_angles,
+                    green,
+                )
+                .unwrap();
+                assert!(
+                    wrap_angle(m + b).abs() < 1e-4,
+                    "normal {normal}: {b} and {m}"
+                );
+            }
+        }
     }
 
     #[test]

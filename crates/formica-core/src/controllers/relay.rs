@@ -32,6 +32,7 @@
 //! `docs/src/results/obstacles.md`.
 
 use crate::controller::RobotRng;
+use crate::controllers::occlusion::nearest_in_scan;
 use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
 use crate::scenario::Color;
@@ -252,14 +253,8 @@ impl Relay {
             .filter(|b| b.color == self.p.goal_color)
             .min_by(|a, b| a.distance.total_cmp(&b.distance))
             .map(|b| (b.bearing, b.distance));
-        let object = r
-            .scan_color
-            .iter()
-            .zip(&r.scan_range)
-            .zip(&layout.scan_angles)
-            .filter(|((c, _), _)| self.object_colors.contains(c))
-            .min_by(|a, b| a.0 .1.total_cmp(b.0 .1))
-            .map(|((_, d), a)| (*a, (d - self.radius).max(0.0)));
+        let object = nearest_in_scan(r, &layout.scan_angles, |c| self.object_colors.contains(&c))
+            .map(|(a, d)| (a, (d - self.radius).max(0.0)));
         if let Some((b, d)) = goal {
             self.goal_mem = Some(r.pose.position() + ops::unit(r.pose.theta + b) * d);
             self.goal_at.0 = r.time_s;
