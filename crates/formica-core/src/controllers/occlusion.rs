@@ -203,6 +203,12 @@ pub struct Params {
     pub slide_deg: f32,
     /// Seconds a slide lasts. Default 10.
     pub slide_s: f32,
+    /// Spread the pushers over the hidden side: a circling robot that finds the goal hidden
+    /// goes on round while it stays hidden, and pushes where it stops making progress (a
+    /// pusher ahead of it) or, having come out on the far side, turns back and pushes at the
+    /// edge. 0 (default): pushes where it first finds the goal hidden. Otherwise the seconds
+    /// without progress that count as stopped.
+    pub spread_s: f32,
 }
 
 impl Default for Params {
@@ -241,6 +247,7 @@ impl Default for Params {
             slide_after_s: None,
             slide_deg: 45.0,
             slide_s: 10.0,
+            spread_s: 0.0,
         }
     }
 }
@@ -300,6 +307,7 @@ impl Params {
             ("slide_after_s", self.slide_after_s.unwrap_or(0.0)),
             ("slide_deg", self.slide_deg),
             ("slide_s", self.slide_s),
+            ("spread_s", self.spread_s),
         ];
         crate::controller::check_params(&positive, &non_negative)?;
         self.relay.validate()?;
@@ -393,6 +401,10 @@ pub struct Occlusion {
     /// (+1 left, -1 right).
     slide_until: f32,
     slide_dir: f32,
+    /// Spreading (`Params::spread_s`): going round through the hidden side; turned back at its
+    /// far edge (push at the first hidden spot).
+    spread_pass: bool,
+    spread_back: bool,
 }
 
 impl Occlusion {
@@ -425,6 +437,8 @@ impl Occlusion {
             walk_left_s: 0.0,
             slide_until: f32::NEG_INFINITY,
             slide_dir: 1.0,
+            spread_pass: false,
+            spread_back: false,
         }
     }
 
@@ -1012,6 +1026,8 @@ impl Controller for Occlusion {
                     let contact = surface.filter(|s| !gated && s.gap <= self.p.contact_gap);
                     if let Some(s) = contact {
                         self.side = self.choose_side(r, s.bearing);
+                        self.spread_pass = false;
+                        self.spread_back = false;
                         self.reverse_until = f32::NEG_INFINITY;
                         self.blocked_since = None;
                         self.set_state(State::Circle, r);
@@ -1045,9 +1061,20 @@ impl Controller for Occlusion {
                         self.set_state(State::Approach, r);
                         continue;
                     }
-                    if hidden {
+                    let spreading = self.p.spread_s > 0.0 && !self.spread_back;
+                    if hidden && (!spreading || self.stuck(r, self.p.spread_s)) {
                         self.set_state(State::Push, r);
                         continue;
+                    }
+                    if spreading {
+                        if hidden {
+                            self.spread_pass = true;
+                        } else if self.spread_pass && visible {
+                            // Out on the far side: back to its edge.
+                            self.spread_pass = false;
+                            self.spread_back = true;
+                            self.side = -self.side;
+                        }
                     }
                     // Something other than the object ahead: go round it; if it may be a wall
                     // and stays, go the other way round the object.
@@ -1169,6 +1196,7 @@ impl Controller for Occlusion {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Pose;
     use crate::robot::RobotModel;
 
     #[test]
@@ -1297,6 +1325,57 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// States of a robot going round an object on its left (camera perception) with the goal
+    /// hidden, tick by tick: it moves 1 cm a tick for `moving` ticks, then stands still.
+    fn hidden_side_states(spread_s: f32, moving: usize, ticks: usize) -> Vec<&'static str> {
+        let layout = crate::sensors::SensorLayout::of(
+            &RobotModel::khepera4(),
+            &crate::scenario::SensorConfig::default(),
+        );
+        let mut c = Occlusion::new(
+            Params {
+                perception: Perception::Camera,
+                spread_s,
+                ..Params::default()
+            },
+            &layout,
+        );
+        let n = layout.scan_angles.len();
+        let mut scan_color = vec![Color::Off; n];
+        let mut scan_range = vec![layout.scan_range; n];
+        // The object on the left, at the circling gap.
+        scan_color[n / 4] = Color::Green;
+        scan_range[n / 4] = layout.radius + 0.03;
+        let mut rng = <RobotRng as rand::SeedableRng>::seed_from_u64(7);
+        (0..ticks)
+            .map(|i| {
+                let r = Readings {
+                    time_s: i as f32 * 0.1,
+                    pose: Pose::new(0.01 * i.min(moving) as f32, 0.0, 0.0),
+                    light: vec![0.0; layout.light_angles.len()],
+                    proximity: vec![0.0; layout.proximity_angles.len()],
+                    scan_color: scan_color.clone(),
+                    scan_range: scan_range.clone(),
+                    ..Readings::default()
+                };
+                c.step(&r, &mut rng);
+                c.state()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn spreading_pushers_go_on_through_the_hidden_side_until_they_stop() {
+        // Without spreading it pushes once the goal has been hidden for `hidden_s` (0.3 s).
+        let plain = hidden_side_states(0.0, 100, 100);
+        assert_eq!(plain[1], "circle");
+        assert!(plain[10..].iter().all(|s| *s == "push"), "{plain:?}");
+        // Spreading, it goes on round while it moves (5 s), and pushes within 3 s of stopping.
+        let spread = hidden_side_states(1.0, 50, 100);
+        assert!(spread[..50].iter().all(|s| *s == "circle"), "{spread:?}");
+        assert!(spread[80..].iter().all(|s| *s == "push"), "{spread:?}");
     }
 
     #[test]
