@@ -1221,9 +1221,17 @@ mod tests {
         assert_eq!(with(true, Some(Side::Left)), Side::Left);
     }
 
-    /// Turn rates (rad/s) a pusher commands, tick by tick for 20 s, pressed against an object
-    /// dead ahead that does not move, the goal hidden.
-    fn stuck_push_turns(slide_after_s: Option<f32>) -> Vec<f32> {
+    /// Runs a camera-perception controller with parameters `p` for `ticks` ticks (0.1 s each),
+    /// the goal light dark and the colour scan showing the object in the one bin nearest
+    /// `object_bearing` (robot frame), `gap` from the body; `pose(i)` is the pose at tick `i`.
+    /// Returns the layout and, tick by tick, the actuation and the state.
+    fn dark_goal_run(
+        p: Params,
+        object_bearing: f32,
+        gap: f32,
+        ticks: usize,
+        pose: impl Fn(usize) -> Pose,
+    ) -> (crate::sensors::SensorLayout, Vec<(Actuation, &'static str)>) {
         let layout = crate::sensors::SensorLayout::of(
             &RobotModel::khepera4(),
             &crate::scenario::SensorConfig::default(),
@@ -1231,28 +1239,24 @@ mod tests {
         let mut c = Occlusion::new(
             Params {
                 perception: Perception::Camera,
-                slide_after_s,
-                ..Params::default()
+                ..p
             },
             &layout,
         );
         let n = layout.scan_angles.len();
-        let ahead = (0..n)
-            .min_by(|a, b| {
-                wrap_angle(layout.scan_angles[*a])
-                    .abs()
-                    .total_cmp(&wrap_angle(layout.scan_angles[*b]).abs())
-            })
-            .unwrap();
+        let off = |k: usize| wrap_angle(layout.scan_angles[k] - object_bearing).abs();
+        // The scan has at least one bin (`scan_bins` is at least 1), so there is a nearest.
+        let bin = (0..n).min_by(|a, b| off(*a).total_cmp(&off(*b))).unwrap();
         let mut scan_color = vec![Color::Off; n];
         let mut scan_range = vec![layout.scan_range; n];
-        scan_color[ahead] = Color::Green;
-        scan_range[ahead] = layout.radius + 0.005;
+        scan_color[bin] = Color::Green;
+        scan_range[bin] = layout.radius + gap;
         let mut rng = <RobotRng as rand::SeedableRng>::seed_from_u64(7);
-        (0..200)
+        let run = (0..ticks)
             .map(|i| {
                 let r = Readings {
                     time_s: i as f32 * 0.1,
+                    pose: pose(i),
                     light: vec![0.0; layout.light_angles.len()],
                     proximity: vec![0.0; layout.proximity_angles.len()],
                     scan_color: scan_color.clone(),
@@ -1260,8 +1264,22 @@ mod tests {
                     ..Readings::default()
                 };
                 let a = c.step(&r, &mut rng);
-                (a.right - a.left) / layout.wheel_distance
+                (a, c.state())
             })
+            .collect();
+        (layout, run)
+    }
+
+    /// Turn rates (rad/s) a pusher commands, tick by tick for 20 s, pressed against an object
+    /// dead ahead that does not move, the goal hidden.
+    fn stuck_push_turns(slide_after_s: Option<f32>) -> Vec<f32> {
+        let p = Params {
+            slide_after_s,
+            ..Params::default()
+        };
+        let (layout, run) = dark_goal_run(p, 0.0, 0.005, 200, |_| Pose::default());
+        run.iter()
+            .map(|(a, _)| (a.right - a.left) / layout.wheel_distance)
             .collect()
     }
 
@@ -1330,40 +1348,13 @@ mod tests {
     /// States of a robot going round an object on its left (camera perception) with the goal
     /// hidden, tick by tick: it moves 1 cm a tick for `moving` ticks, then stands still.
     fn hidden_side_states(spread_s: f32, moving: usize, ticks: usize) -> Vec<&'static str> {
-        let layout = crate::sensors::SensorLayout::of(
-            &RobotModel::khepera4(),
-            &crate::scenario::SensorConfig::default(),
-        );
-        let mut c = Occlusion::new(
-            Params {
-                perception: Perception::Camera,
-                spread_s,
-                ..Params::default()
-            },
-            &layout,
-        );
-        let n = layout.scan_angles.len();
-        let mut scan_color = vec![Color::Off; n];
-        let mut scan_range = vec![layout.scan_range; n];
-        // The object on the left, at the circling gap.
-        scan_color[n / 4] = Color::Green;
-        scan_range[n / 4] = layout.radius + 0.03;
-        let mut rng = <RobotRng as rand::SeedableRng>::seed_from_u64(7);
-        (0..ticks)
-            .map(|i| {
-                let r = Readings {
-                    time_s: i as f32 * 0.1,
-                    pose: Pose::new(0.01 * i.min(moving) as f32, 0.0, 0.0),
-                    light: vec![0.0; layout.light_angles.len()],
-                    proximity: vec![0.0; layout.proximity_angles.len()],
-                    scan_color: scan_color.clone(),
-                    scan_range: scan_range.clone(),
-                    ..Readings::default()
-                };
-                c.step(&r, &mut rng);
-                c.state()
-            })
-            .collect()
+        let p = Params {
+            spread_s,
+            ..Params::default()
+        };
+        let pose = |i: usize| Pose::new(0.01 * i.min(moving) as f32, 0.0, 0.0);
+        let (_, run) = dark_goal_run(p, FRAC_PI_2, 0.03, ticks, pose);
+        run.into_iter().map(|(_, s)| s).collect()
     }
 
     #[test]
