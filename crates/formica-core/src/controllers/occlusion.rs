@@ -1156,9 +1156,10 @@ impl Controller for Occlusion {
                     let spreading = self.p.spread_s > 0.0 && !returned && !(fresh && moving);
                     // Stopped: no progress since the goal went dark here (a turn back on the
                     // spot does not count).
-                    if !hidden || !self.spread_was_hidden {
-                        self.spread_anchor = (now, here);
-                    } else if (here - self.spread_anchor.1).length() >= self.p.stuck_dist {
+                    if !hidden
+                        || !self.spread_was_hidden
+                        || (here - self.spread_anchor.1).length() >= self.p.stuck_dist
+                    {
                         self.spread_anchor = (now, here);
                     }
                     self.spread_was_hidden = hidden;
