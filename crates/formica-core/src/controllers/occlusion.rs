@@ -392,15 +392,14 @@ pub struct Occlusion {
     /// Since when the goal has been hidden / visible (s).
     hidden_since: Option<f32>,
     visible_since: Option<f32>,
-    /// Progress watch: position and time of the last check.
-    anchor: Vec2,
+    /// Progress watch of the escape time-outs (`stuck`).
+    progress: Progress,
     /// Smoothed own position (positioning noise averaged out), for the progress watch.
     smooth: Option<Vec2>,
     /// Whether the goal light counts as visible now (with hysteresis).
     goal_lit: bool,
     /// Tell the goal as not hidden on the next step (an embedding controller's veto).
     veto_hidden: bool,
-    anchor_s: f32,
     /// Way round chosen on reaching the object (+1: object on the left).
     side: f32,
     /// Go round the other way until this time (s).
@@ -423,23 +422,112 @@ pub struct Occlusion {
     /// (+1 left, -1 right).
     slide_until: f32,
     slide_dir: f32,
-    /// Spreading (`Params::spread_s`): going round through the hidden side; turned back at its
-    /// far edge, after walking `spread_len` (m) through it, and `spread_ret` (m) walked back;
-    /// `spread_last` the position at the last tick of circling.
-    spread_pass: bool,
-    spread_back: bool,
-    spread_len: f32,
-    spread_ret: f32,
-    spread_last: Option<Vec2>,
-    /// Progress while spreading: the time and place of the last `stuck_dist` moved with the
-    /// goal hidden, and whether it was hidden at the last tick of circling.
-    spread_anchor: (f32, Vec2),
-    spread_was_hidden: bool,
-    /// The object's centre (beacon) smoothed; where it was at the start of the current 3 s
-    /// window (time, position); whether it moved over `spread_still_m` in the last window.
-    object_smooth: Option<Vec2>,
-    object_anchor: Option<(f32, Vec2)>,
-    object_moving: bool,
+    /// Spreading over the hidden side (`Params::spread_s`), from reaching the object on.
+    spread: Spread,
+    /// Whether the object moves (`Params::spread_still_m`).
+    object: ObjectMotion,
+}
+
+/// Where a robot stood and since when, for "no progress for so long" tests.
+#[derive(Debug, Clone, Copy)]
+struct Progress {
+    at: Vec2,
+    /// NaN until the first check.
+    since: f32,
+}
+
+impl Default for Progress {
+    fn default() -> Self {
+        Progress {
+            at: Vec2::ZERO,
+            since: f32::NAN,
+        }
+    }
+}
+
+impl Progress {
+    fn restart(&mut self, here: Vec2, now: f32) {
+        self.at = here;
+        self.since = now;
+    }
+
+    /// Restarts (and says so) on the first check or once `here` is `dist` from where it
+    /// started.
+    fn moved(&mut self, here: Vec2, now: f32, dist: f32) -> bool {
+        let moved = self.since.is_nan() || (here - self.at).length() >= dist;
+        if moved {
+            self.restart(here, now);
+        }
+        moved
+    }
+
+    /// Seconds without progress.
+    fn stalled(&self, now: f32) -> f32 {
+        now - self.since
+    }
+}
+
+/// Which leg of spreading a circling robot is on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+enum Leg {
+    /// Has not found the goal hidden since reaching the object.
+    #[default]
+    Fresh,
+    /// Going on round through the hidden side.
+    Through,
+    /// Came out on its far side and turned back.
+    Back,
+}
+
+/// A circling robot's spreading (`Params::spread_s`).
+#[derive(Debug, Clone, Copy, Default)]
+struct Spread {
+    leg: Leg,
+    /// Metres walked through the hidden side, and back since turning.
+    through_m: f32,
+    back_m: f32,
+    /// Position at the last tick of circling.
+    last: Option<Vec2>,
+    /// No progress with the goal hidden, and whether it was hidden at the last tick of
+    /// circling (a turn back on the spot does not count).
+    progress: Progress,
+    was_hidden: bool,
+}
+
+/// Whether the object moves, from the beacon: its smoothed centre compared every 3 s.
+#[derive(Debug, Clone, Copy, Default)]
+struct ObjectMotion {
+    smooth: Option<Vec2>,
+    /// Time and smoothed centre at the start of the current 3 s window.
+    anchor: Option<(f32, Vec2)>,
+    moving: bool,
+}
+
+impl ObjectMotion {
+    /// Takes the beacon's reading `beacon` at `now`; moving is more than `still_m` in the last
+    /// window. No beacon forgets; a jump (another object's beacon) starts again.
+    fn update(&mut self, beacon: Option<Vec2>, now: f32, still_m: f32) {
+        let Some(c) = beacon else {
+            *self = ObjectMotion::default();
+            return;
+        };
+        let smooth = match self.smooth {
+            Some(s) if (c - s).length() < 0.3 => s + (c - s) * 0.1,
+            _ => {
+                self.anchor = None;
+                c
+            }
+        };
+        self.smooth = Some(smooth);
+        match self.anchor {
+            Some((t, a)) if now - t >= 3.0 => {
+                self.moving = (smooth - a).length() > still_m;
+                self.anchor = Some((now, smooth));
+            }
+            Some(_) => {}
+            None => self.anchor = Some((now, smooth)),
+        }
+    }
 }
 
 impl Occlusion {
@@ -457,11 +545,10 @@ impl Occlusion {
             last_s: 0.0,
             hidden_since: None,
             visible_since: None,
-            anchor: Vec2::ZERO,
+            progress: Progress::default(),
             smooth: None,
             goal_lit: false,
             veto_hidden: false,
-            anchor_s: f32::NAN,
             side: 1.0,
             reverse_until: f32::NEG_INFINITY,
             blocked_since: None,
@@ -472,16 +559,8 @@ impl Occlusion {
             walk_left_s: 0.0,
             slide_until: f32::NEG_INFINITY,
             slide_dir: 1.0,
-            spread_pass: false,
-            spread_back: false,
-            spread_len: 0.0,
-            spread_ret: 0.0,
-            spread_last: None,
-            spread_anchor: (0.0, Vec2::ZERO),
-            spread_was_hidden: false,
-            object_smooth: None,
-            object_anchor: None,
-            object_moving: false,
+            spread: Spread::default(),
+            object: ObjectMotion::default(),
         }
     }
 
@@ -607,38 +686,15 @@ impl Occlusion {
         if s != self.state {
             self.state = s;
             self.since_s = r.time_s;
-            self.anchor = self.smooth.unwrap_or(r.pose.position());
-            self.anchor_s = r.time_s;
-            self.spread_was_hidden = false;
-            self.spread_last = None;
+            self.progress.restart(self.position(r), r.time_s);
+            self.spread.was_hidden = false;
+            self.spread.last = None;
         }
     }
 
-    /// Whether the object moves, from the beacon: its smoothed position compared every 3 s
-    /// (`Params::spread_still_m`). A jump (another object's beacon) starts again.
-    fn track_object(&mut self, r: &Readings) {
-        let Some(c) = r.beacon else {
-            self.object_smooth = None;
-            self.object_anchor = None;
-            self.object_moving = false;
-            return;
-        };
-        let smooth = match self.object_smooth {
-            Some(s) if (c - s).length() < 0.3 => s + (c - s) * 0.1,
-            _ => {
-                self.object_anchor = None;
-                c
-            }
-        };
-        self.object_smooth = Some(smooth);
-        match self.object_anchor {
-            Some((t, a)) if r.time_s - t >= 3.0 => {
-                self.object_moving = (smooth - a).length() > self.p.spread_still_m;
-                self.object_anchor = Some((r.time_s, smooth));
-            }
-            Some(_) => {}
-            None => self.object_anchor = Some((r.time_s, smooth)),
-        }
+    /// Own position, smoothed (for progress).
+    fn position(&self, r: &Readings) -> Vec2 {
+        self.smooth.unwrap_or(r.pose.position())
     }
 
     fn twist(&self, forward: f32, turn: f32) -> Actuation {
@@ -745,13 +801,11 @@ impl Occlusion {
 
     /// Time-out bookkeeping: whether the robot has stayed put for `limit` seconds.
     fn stuck(&mut self, r: &Readings, limit: f32) -> bool {
-        let here = self.smooth.unwrap_or(r.pose.position());
-        if self.anchor_s.is_nan() || (here - self.anchor).length() >= self.p.stuck_dist {
-            self.anchor = here;
-            self.anchor_s = r.time_s;
+        let here = self.position(r);
+        if self.progress.moved(here, r.time_s, self.p.stuck_dist) {
             return false;
         }
-        r.time_s - self.anchor_s >= limit
+        self.progress.stalled(r.time_s) >= limit
     }
 
     /// Whether the goal has been hidden by the object for `hidden_s`, and visible for
@@ -1051,7 +1105,8 @@ impl Controller for Occlusion {
             Some(s) if (here - s).length() < 0.2 => s + (here - s) * 0.2,
             _ => here,
         });
-        self.track_object(r);
+        self.object
+            .update(r.beacon, r.time_s, self.p.spread_still_m);
         let (surface, other, wall) = self.perceive(r);
         let object_dir = match self.p.perception {
             Perception::Beacon => self.centre_bearing(r).map(|(b, _)| b),
@@ -1099,12 +1154,7 @@ impl Controller for Occlusion {
                     let contact = surface.filter(|s| !gated && s.gap <= self.p.contact_gap);
                     if let Some(s) = contact {
                         self.side = self.choose_side(r, s.bearing);
-                        self.spread_pass = false;
-                        self.spread_back = false;
-                        self.spread_len = 0.0;
-                        self.spread_ret = 0.0;
-                        self.spread_last = None;
-                        self.spread_was_hidden = false;
+                        self.spread = Spread::default();
                         self.reverse_until = f32::NEG_INFINITY;
                         self.blocked_since = None;
                         self.set_state(State::Circle, r);
@@ -1138,44 +1188,41 @@ impl Controller for Occlusion {
                         self.set_state(State::Approach, r);
                         continue;
                     }
-                    let here = self.smooth.unwrap_or(r.pose.position());
-                    let step = self.spread_last.map_or(0.0, |l| (here - l).length());
-                    self.spread_last = Some(here);
-                    if self.spread_pass && hidden {
-                        self.spread_len += step;
-                    }
-                    if self.spread_back {
-                        self.spread_ret += step;
+                    let here = self.position(r);
+                    let sp = &mut self.spread;
+                    let step = sp.last.map_or(0.0, |l| (here - l).length());
+                    sp.last = Some(here);
+                    match sp.leg {
+                        Leg::Through if hidden => sp.through_m += step,
+                        Leg::Back => sp.back_m += step,
+                        _ => {}
                     }
                     // Spreading: not once walked back far enough, nor (a fresh find) while
                     // the object moves.
-                    let returned = self.spread_back
-                        && self.spread_ret >= self.p.spread_return * self.spread_len;
-                    let moving = self.p.spread_still_m > 0.0 && self.object_moving;
-                    let fresh = !self.spread_pass && !self.spread_back;
+                    let returned =
+                        sp.leg == Leg::Back && sp.back_m >= self.p.spread_return * sp.through_m;
+                    let moving = self.p.spread_still_m > 0.0 && self.object.moving;
+                    let fresh = sp.leg == Leg::Fresh;
                     let spreading = self.p.spread_s > 0.0 && !returned && !(fresh && moving);
-                    // Stopped: no progress since the goal went dark here (a turn back on the
-                    // spot does not count).
-                    if !hidden
-                        || !self.spread_was_hidden
-                        || (here - self.spread_anchor.1).length() >= self.p.stuck_dist
-                    {
-                        self.spread_anchor = (now, here);
+                    // Stopped: no progress since the goal went dark here.
+                    if !hidden || !sp.was_hidden {
+                        sp.progress.restart(here, now);
+                    } else {
+                        sp.progress.moved(here, now, self.p.stuck_dist);
                     }
-                    self.spread_was_hidden = hidden;
-                    let stopped = now - self.spread_anchor.0 >= self.p.spread_s;
+                    sp.was_hidden = hidden;
+                    let stopped = sp.progress.stalled(now) >= self.p.spread_s;
                     if hidden && (!spreading || stopped) {
                         self.set_state(State::Push, r);
                         continue;
                     }
                     if spreading {
-                        if hidden && !self.spread_back {
-                            self.spread_pass = true;
-                        } else if self.spread_pass && visible {
-                            // Out on the far side: back to its edge.
-                            self.spread_pass = false;
-                            self.spread_back = true;
-                            self.spread_ret = 0.0;
+                        if hidden && sp.leg != Leg::Back {
+                            sp.leg = Leg::Through;
+                        } else if sp.leg == Leg::Through && visible {
+                            // Out on the far side: back along the hidden stretch.
+                            sp.leg = Leg::Back;
+                            sp.back_m = 0.0;
                             self.side = -self.side;
                         }
                     }
