@@ -306,7 +306,9 @@ fn fillers_relay_on_their_way_to_the_object() {
     // fill-transport with relays, the H at N = 30 in the middle map: robots drive to the object
     // first, and none would wander (and relay) before filling is over, by when the object is
     // hidden in the crowd. Fillers that lose the goal behind the obstacle on their way relay,
-    // before any robot pushes (in seeds 3 and 4 of 1 to 6 within 2 s; in 1 and 2 none does).
+    // before any robot pushes (in seeds 3 and 6 of 1 to 6 within 4 s; in 1 and 5 none does
+    // in 120 s, in 2 and 4 a robot pushes first: with Queiroz and MacRae's angle test, a
+    // filler that had the goal and the object on one side does not relay).
     let h = "[[-0.2, -0.2], [-0.1, -0.2], [-0.1, -0.05], [0.1, -0.05], [0.1, -0.2], \
              [0.2, -0.2], [0.2, 0.2], [0.1, 0.2], [0.1, 0.05], [-0.1, 0.05], [-0.1, 0.2], \
              [-0.2, 0.2]]";
@@ -321,7 +323,7 @@ fn fillers_relay_on_their_way_to_the_object() {
             "controller = \"fill-transport\"",
         );
     let sc = Scenario::parse(&text, "qm-middle.toml").unwrap();
-    for seed in 3..=4 {
+    for seed in [3, 6] {
         let mut run = start(&sc, seed);
         let mut relayed = None;
         while relayed.is_none() && run.world.time_s < 120.0 {

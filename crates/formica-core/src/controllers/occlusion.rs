@@ -1117,9 +1117,12 @@ impl Controller for Occlusion {
         }
         let (hidden, visible) = self.goal_hidden(r, object_dir);
         let now = r.time_s;
-        // Only a wandering robot relays (one circling or pushing loses the goal behind the
-        // object, one approaching sees both).
-        if let Some(act) = self.relay_update(r, rng, self.state == State::Search) {
+        // A robot searching or on its way to the object may relay (one circling or pushing
+        // loses the goal behind the object). One on its way saw the object and a goal last
+        // tick: losing the goal now, it stands where the object's way round an obstacle
+        // begins. (Search alone, before results format 12, left the offset gap 30 of 50.)
+        let free = matches!(self.state, State::Search | State::Approach);
+        if let Some(act) = self.relay_update(r, rng, free) {
             return act;
         }
         // Relays: a free robot approaches the object only with both it and a goal in sight;
@@ -1369,6 +1372,41 @@ mod tests {
         assert_eq!(with(false, None), Side::Left);
         assert_eq!(with(true, None), Side::Shortest);
         assert_eq!(with(true, Some(Side::Left)), Side::Left);
+    }
+
+    #[test]
+    fn a_robot_on_its_way_to_the_object_relays_where_a_wall_hides_the_goal() {
+        // Seeing the object (beacon, 0.5 m behind) and the goal ahead, the robot approaches;
+        // the next tick a wall hides the goal. It stands in for the goal: robots on their way
+        // lose the goal where the object's way round the obstacle begins (offset gap 30 -> 46
+        // of 50 with relays, two corners 25 -> 38).
+        use crate::controllers::relay::tests::{layout, lost, readings};
+        let l = layout();
+        let mut occ = Occlusion::new(
+            Params {
+                relays: true,
+                ..Params::default()
+            },
+            &l,
+        );
+        let mut rng = <RobotRng as rand::SeedableRng>::seed_from_u64(1);
+        let behind = 3.0f32;
+        let beacon = Some(ops::unit(behind) * 0.5);
+        let seen = Readings {
+            beacon,
+            ..readings(0.1, Some(0.0), Some(behind), &l)
+        };
+        occ.step(&seen, &mut rng);
+        assert_eq!(occ.state(), "approach");
+        assert!(!occ.is_relay());
+        let hidden = Readings {
+            beacon,
+            ..lost(0.2, Some(behind), &l)
+        };
+        let act = occ.step(&hidden, &mut rng);
+        assert!(occ.is_relay());
+        assert_eq!(occ.state(), "relay");
+        assert_eq!(act.led, Color::Cyan);
     }
 
     /// Runs a camera-perception controller with parameters `p` for `ticks` ticks (0.1 s each),
