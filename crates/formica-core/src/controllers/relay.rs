@@ -95,8 +95,9 @@ pub struct Params {
     pub occlusion_bins: f32,
     /// A free robot approaches the object if it sees it and has seen a goal (the real one or
     /// a relay) within this many seconds. Default 0: only with a goal in sight now, as Queiroz
-    /// and MacRae.
-    pub gate_memory_s: f32,
+    /// and MacRae; for `fill-transport`'s pushers, any goal seen since the run began (they
+    /// have been round the object, and know where it is).
+    pub gate_memory_s: Option<f32>,
 }
 
 impl Default for Params {
@@ -115,7 +116,7 @@ impl Default for Params {
             blind_after_s: 120.0,
             lost_window_s: 0.0,
             occlusion_bins: 1.0,
-            gate_memory_s: 0.0,
+            gate_memory_s: None,
         }
     }
 }
@@ -146,7 +147,7 @@ impl Params {
                 ("relay.lost_window_s", self.lost_window_s),
                 ("relay.progress_m", self.progress_m),
                 ("relay.occlusion_bins", self.occlusion_bins),
-                ("relay.gate_memory_s", self.gate_memory_s),
+                ("relay.gate_memory_s", self.gate_memory_s.unwrap_or(0.0)),
             ],
         )
     }
@@ -301,7 +302,8 @@ impl Relay {
     /// within `gate_memory_s`).
     pub fn gate(&self) -> bool {
         let (seen, now) = self.goal_at;
-        let goal = self.view.goal.is_some() || now - seen <= self.p.gate_memory_s;
+        let memory = self.p.gate_memory_s.unwrap_or(0.0);
+        let goal = self.view.goal.is_some() || now - seen <= memory;
         goal && self.view.object.is_some()
     }
 
@@ -661,7 +663,11 @@ pub(crate) mod tests {
     fn the_gate_remembers_a_goal_for_gate_memory_s() {
         let l = layout();
         let mut rng = RobotRng::seed_from_u64(3);
-        for (memory, open_at_20s, open_at_45s) in [(0.0, false, false), (30.0, true, false)] {
+        for (memory, open_at_20s, open_at_45s) in [
+            (None, false, false),
+            (Some(0.0), false, false),
+            (Some(30.0), true, false),
+        ] {
             let p = Params {
                 gate_memory_s: memory,
                 ..Params::default()
@@ -682,14 +688,14 @@ pub(crate) mod tests {
                 false,
                 &mut rng,
             );
-            assert_eq!(relay.gate(), open_at_20s, "memory {memory} at 20 s");
+            assert_eq!(relay.gate(), open_at_20s, "memory {memory:?} at 20 s");
             step(
                 &mut relay,
                 &readings(45.0, None, Some(3.0), &l),
                 false,
                 &mut rng,
             );
-            assert_eq!(relay.gate(), open_at_45s, "memory {memory} at 45 s");
+            assert_eq!(relay.gate(), open_at_45s, "memory {memory:?} at 45 s");
             // Never without the object in sight.
             step(
                 &mut relay,
