@@ -829,6 +829,21 @@ mod tests {
     use rand::SeedableRng;
     use std::f32::consts::{FRAC_PI_2, TAU};
 
+    /// Proximity readings of a robot with an edge close on its left (0.9 on the sensor
+    /// nearest +90 degrees, nothing elsewhere).
+    fn edge_on_the_left(layout: &SensorLayout) -> Vec<f32> {
+        let left = (0..layout.proximity_angles.len())
+            .min_by(|a, b| {
+                let d = |i: &usize| wrap_angle(layout.proximity_angles[*i] - FRAC_PI_2).abs();
+                d(a).total_cmp(&d(b))
+            })
+            // Cannot fail: a Khepera IV has 8 proximity sensors.
+            .unwrap();
+        let mut proximity = vec![0.0; layout.proximity_angles.len()];
+        proximity[left] = 0.9;
+        proximity
+    }
+
     /// The pusher's `object_reach` of a filler that follows the object (0.35 m from its
     /// centre) over 60 degrees, an obstacle 1.5 m out back over those 60 degrees, then the
     /// object over a full lap, measuring the pseudo object by `reach`.
@@ -840,15 +855,7 @@ mod tests {
         };
         let mut ft = FillTransport::new(p, &layout);
         let mut rng = RobotRng::seed_from_u64(1);
-        let left = (0..layout.proximity_angles.len())
-            .min_by(|a, b| {
-                let d = |i: &usize| wrap_angle(layout.proximity_angles[*i] - FRAC_PI_2).abs();
-                d(a).total_cmp(&d(b))
-            })
-            // Cannot fail: a Khepera IV has 8 proximity sensors.
-            .unwrap();
-        let mut proximity = vec![0.0; layout.proximity_angles.len()];
-        proximity[left] = 0.9;
+        let proximity = edge_on_the_left(&layout);
         // 1 degree a tick: the object from 0 to 60 degrees, the obstacle back to 0, the
         // object from 0 on.
         for k in 0..500 {
@@ -910,15 +917,7 @@ mod tests {
         let layout = SensorLayout::of(&RobotModel::khepera4(), &SensorConfig::default());
         let mut ft = FillTransport::new(Params::default(), &layout);
         let mut rng = RobotRng::seed_from_u64(1);
-        let left = (0..layout.proximity_angles.len())
-            .min_by(|a, b| {
-                let d = |i: &usize| wrap_angle(layout.proximity_angles[*i] - FRAC_PI_2).abs();
-                d(a).total_cmp(&d(b))
-            })
-            // Cannot fail: a Khepera IV has 8 proximity sensors.
-            .unwrap();
-        let mut proximity = vec![0.0; layout.proximity_angles.len()];
-        proximity[left] = 0.9;
+        let proximity = edge_on_the_left(&layout);
         let mut became = None;
         for k in 0..4000 {
             let t = k as f32 * 0.1;
