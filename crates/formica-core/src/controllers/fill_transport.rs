@@ -747,9 +747,12 @@ impl FillTransport {
                 };
                 self.dist_smooth = Some(s);
                 self.farthest = self.farthest.max(s);
-                let at = ops::angle_of(r.pose.position() - c) + PI;
-                let bin = ((at / TAU * OUTLINE_BINS as f32) as usize).min(OUTLINE_BINS - 1);
-                self.outline[bin] = self.outline[bin].min(s);
+                // The filler's own angle round the centre this tick (it sums the lap from it).
+                if let Some(at) = self.filler.around() {
+                    let at = at + PI;
+                    let bin = ((at / TAU * OUTLINE_BINS as f32) as usize).min(OUTLINE_BINS - 1);
+                    self.outline[bin] = self.outline[bin].min(s);
+                }
             } else {
                 self.dist_smooth = None;
             }

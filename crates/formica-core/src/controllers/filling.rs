@@ -384,6 +384,12 @@ impl Filler {
         self.touched
     }
 
+    /// This tick's direction (rad, world frame) of the robot from the reference point given
+    /// to [`Filler::step_guided`], once it has touched something object-like.
+    pub fn around(&self) -> Option<f32> {
+        self.last_angle
+    }
+
     /// Angle (rad, counter-clockwise positive) swept around the reference point given to
     /// [`Filler::step_guided`] since the robot first touched something object-like.
     pub fn circled(&self) -> f32 {
