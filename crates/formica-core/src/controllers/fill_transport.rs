@@ -156,6 +156,15 @@ pub struct Params {
     /// Attached robots' wheels: `"push"` (default), `"coast"`, `"brake"`, `"comply"` or
     /// `"assist"`.
     pub attached: AttachedDrive,
+    /// An attached robot whose heading has stayed more than `push_within_deg` off the goal's
+    /// axis for this many seconds (the pseudo object turned under it) lets go, turns in place
+    /// until it lies within `align_deg` of the axis, and attaches again: its wheels then roll,
+    /// and push, along the way the object must go instead of skidding sideways. A robot that
+    /// cannot attach again within `realign_timeout_s` (the object moved off) becomes a pusher.
+    /// 0: never (results format 13 and earlier).
+    pub realign_s: f32,
+    /// See `realign_s`. Default 10.
+    pub realign_timeout_s: f32,
     /// `push`: an attached robot pushes only while its heading lies within this angle
     /// (degrees) of the goal's axis (toward the goal or away from it, driving backward); as the
     /// pseudo object turns further, its push would drive the object sideways, and it coasts.
@@ -234,6 +243,8 @@ impl Default for Params {
             hidden_s: 0.3,
             attached_push: 0.3,
             attached: AttachedDrive::Push,
+            realign_s: 10.0,
+            realign_timeout_s: 10.0,
             push_within_deg: 25.0,
             align_deg: 10.0,
             attach_needs_goal: true,
@@ -304,6 +315,12 @@ pub fn factory(
         return Err(format!(
             "`reach_margin` must be 0 to 1 m, got {}",
             p.reach_margin
+        ));
+    }
+    if !(p.realign_s >= 0.0 && p.realign_s.is_finite() && positive(p.realign_timeout_s)) {
+        return Err(format!(
+            "`realign_s` must be 0 or more and `realign_timeout_s` positive, got {} and {}",
+            p.realign_s, p.realign_timeout_s
         ));
     }
     if !(0.0..=1.0).contains(&p.attached_push) {
@@ -474,6 +491,12 @@ pub struct FillTransport {
     attached_push: f32,
     attached: AttachedDrive,
     push_within: f32,
+    realign_s: f32,
+    realign_timeout_s: f32,
+    /// Attached and off the goal's axis since this time.
+    misaligned_since: Option<f32>,
+    /// Realigning (let go to turn in place) since this time.
+    realigning_since: Option<f32>,
     align: f32,
     attach_needs_goal: bool,
     comply_push: f32,
@@ -522,6 +545,10 @@ impl FillTransport {
             attached_push: p.attached_push,
             attached: p.attached,
             push_within: p.push_within_deg.to_radians(),
+            realign_s: p.realign_s,
+            realign_timeout_s: p.realign_timeout_s,
+            misaligned_since: None,
+            realigning_since: None,
             align: p.align_deg.to_radians(),
             attach_needs_goal: p.attach_needs_goal,
             comply_push: p.comply_push_deg.to_radians(),
@@ -599,6 +626,79 @@ impl FillTransport {
                 Actuation::from_twist(fwd, w * self.comply_gain, &self.layout)
             }
         }
+    }
+
+    /// Ends filling: from now on the robot pushes, with the pseudo object's size as it measured it.
+    fn start_pushing(&mut self) {
+        self.pushing = true;
+        self.filler.set_stopping(false);
+        let size = match self.reach {
+            Reach::Farthest => self.farthest,
+            Reach::Outline => outline_reach(&self.outline),
+        };
+        let reach = self.pusher.object_reach().max(size + self.reach_margin);
+        self.pusher.set_object_reach(reach);
+    }
+
+    /// A stopped filler's realignment (see `Params::realign_s`): `None` while it stays attached
+    /// as it is (or once it has become a pusher, having lost the object).
+    fn realign(&mut self, r: &Readings) -> Option<Actuation> {
+        if self.realign_s <= 0.0 {
+            return None;
+        }
+        let now = r.time_s;
+        let g = self.goal_dir?;
+        let e = axis_offset(g, r.pose.theta);
+        let Some(t0) = self.realigning_since else {
+            let off = r.attached && e.abs() > self.push_within;
+            if !off {
+                self.misaligned_since = None;
+                return None;
+            }
+            let since = *self.misaligned_since.get_or_insert(now);
+            if now - since < self.realign_s - 1e-4 {
+                return None;
+            }
+            self.misaligned_since = None;
+            self.realigning_since = Some(now);
+            return Some(
+                Actuation {
+                    attach: AttachCommand::Detach,
+                    ..Actuation::coasting()
+                }
+                .with_led(Color::Blue),
+            );
+        };
+        if r.attached && now > t0 {
+            // Attached again (the detach of the first tick has been applied by now).
+            if e.abs() <= self.align {
+                self.realigning_since = None;
+                return None;
+            }
+            return Some(
+                Actuation {
+                    attach: AttachCommand::Detach,
+                    ..Actuation::coasting()
+                }
+                .with_led(Color::Blue),
+            );
+        }
+        if now - t0 > self.realign_timeout_s {
+            self.realigning_since = None;
+            self.start_pushing();
+            return None;
+        }
+        if e.abs() > 0.5 * self.align {
+            let turn = (3.0 * e).clamp(-3.0, 3.0);
+            return Some(Actuation::from_twist(0.0, turn, &self.layout).with_led(Color::Blue));
+        }
+        Some(
+            Actuation {
+                attach: AttachCommand::Attach,
+                ..Actuation::default()
+            }
+            .with_led(Color::Blue),
+        )
     }
 
     /// A robot about to attach: without a goal seen yet (and `attach_needs_goal`), it does not
@@ -735,7 +835,12 @@ impl FillTransport {
                 act = self.before_attach(r, act);
             }
             if self.filler.fill_state() == FillState::Stopped {
-                return self.attached_drive(r).with_led(act.led);
+                if let Some(act) = self.realign(r) {
+                    return act;
+                }
+                if !self.pushing {
+                    return self.attached_drive(r).with_led(act.led);
+                }
             }
             let st = self.filler.fill_state();
             if let (Some(c), FillState::Follow | FillState::Arc) = (centre, st) {
@@ -774,14 +879,7 @@ impl FillTransport {
             if !done || st == FillState::Stopped {
                 return act;
             }
-            self.pushing = true;
-            self.filler.set_stopping(false);
-            let size = match self.reach {
-                Reach::Farthest => self.farthest,
-                Reach::Outline => outline_reach(&self.outline),
-            };
-            let reach = self.pusher.object_reach().max(size + self.reach_margin);
-            self.pusher.set_object_reach(reach);
+            self.start_pushing();
         }
         if self.pusher_kind == Pusher::Edge {
             return self.edge_push(r, rng);
@@ -809,6 +907,8 @@ impl FillTransport {
             } else {
                 "push-follow"
             }
+        } else if self.realigning_since.is_some() {
+            "realign"
         } else if self.pushing {
             match self.pusher.state() {
                 "search" => "push-search",
@@ -909,6 +1009,105 @@ mod tests {
         let mut set = p.clone();
         set.push.relay.gate_memory_s = Some(0.0);
         assert_eq!(set.pusher().relay.gate_memory_s, Some(0.0));
+    }
+
+    /// A stopped (attached) filler that has seen the goal along +x, its readings at time `t`
+    /// with heading `theta_deg`.
+    fn attached_filler() -> (FillTransport, SensorLayout) {
+        let layout = SensorLayout::of(&RobotModel::khepera4(), &SensorConfig::default());
+        let mut ft = FillTransport::new(Params::default(), &layout);
+        ft.filler.stop_for_test();
+        ft.goal_dir = Some(0.0);
+        (ft, layout)
+    }
+
+    fn at(t: f32, theta_deg: f32, attached: bool, layout: &SensorLayout) -> Readings {
+        Readings {
+            time_s: t,
+            proximity: vec![0.0; layout.proximity_angles.len()],
+            light: vec![0.0; layout.light_angles.len()],
+            pose: Pose::new(0.0, 0.0, theta_deg.to_radians()),
+            beacon: Some(Vec2::new(-0.3, 0.0)),
+            attached,
+            ..Readings::default()
+        }
+    }
+
+    #[test]
+    fn an_attached_robot_turned_off_the_goal_axis_lets_go_turns_and_attaches_again() {
+        let (mut ft, layout) = attached_filler();
+        let mut rng = RobotRng::seed_from_u64(1);
+        // 60 degrees off the axis (the pseudo object turned under it): it coasts for
+        // `realign_s` (10 s), then lets go.
+        let mut t = 0.0;
+        let mut detached_at = None;
+        while t < 20.0 {
+            let act = ft.step(&at(t, 60.0, true, &layout), &mut rng);
+            if act.attach == AttachCommand::Detach {
+                detached_at = Some(t);
+                break;
+            }
+            assert!(act.coast, "at {t} s a misaligned attached robot coasts");
+            t += 0.1;
+        }
+        let t0 = detached_at.expect("never let go");
+        assert!((9.9..10.2).contains(&t0), "let go at {t0} s");
+        assert_eq!(ft.state(), "realign");
+        // Detached, it turns in place toward the axis (clockwise: right wheel slower).
+        let act = ft.step(&at(t0 + 0.1, 60.0, false, &layout), &mut rng);
+        assert!(act.left > 0.0 && act.right < 0.0, "turns {act:?}");
+        // Once on the axis (as its filtered heading has it) it attaches again, wheels still.
+        let mut t = t0 + 0.2;
+        loop {
+            let act = ft.step(&at(t, 2.0, false, &layout), &mut rng);
+            if act.attach == AttachCommand::Attach {
+                assert_eq!((act.left, act.right), (0.0, 0.0));
+                break;
+            }
+            assert!(t < t0 + 3.0, "not attached again at {t} s: {act:?}");
+            t += 0.1;
+        }
+        // Attached again on the axis: it pushes toward the goal and stays attached.
+        let act = ft.step(&at(t + 0.1, 2.0, true, &layout), &mut rng);
+        assert_eq!(act.attach, AttachCommand::Keep);
+        assert!(act.left > 0.0 && act.right > 0.0, "pushes {act:?}");
+        assert_eq!(ft.state(), "stopped");
+        assert!(!ft.is_pusher());
+    }
+
+    #[test]
+    fn a_robot_that_cannot_attach_again_becomes_a_pusher() {
+        let (mut ft, layout) = attached_filler();
+        let mut rng = RobotRng::seed_from_u64(1);
+        let mut t = 0.0;
+        while ft.state() != "realign" {
+            assert!(t < 20.0, "never let go");
+            ft.step(&at(t, -90.0, true, &layout), &mut rng);
+            t += 0.1;
+        }
+        // The object moved off: it never touches anything again.
+        let start = t;
+        while !ft.is_pusher() {
+            assert!(t < start + 11.0, "still realigning at {t} s");
+            ft.step(&at(t, 0.0, false, &layout), &mut rng);
+            t += 0.1;
+        }
+        assert!(t > start + 9.9, "gave up after {} s", t - start);
+        // With `realign_s = 0` an attached robot stays attached whatever its heading.
+        let layout2 = layout.clone();
+        let mut off = FillTransport::new(
+            Params {
+                realign_s: 0.0,
+                ..Params::default()
+            },
+            &layout2,
+        );
+        off.filler.stop_for_test();
+        off.goal_dir = Some(0.0);
+        for k in 0..300 {
+            let act = off.step(&at(k as f32 * 0.1, 60.0, true, &layout2), &mut rng);
+            assert_eq!(act.attach, AttachCommand::Keep);
+        }
     }
 
     #[test]

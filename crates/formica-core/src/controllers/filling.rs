@@ -396,6 +396,13 @@ impl Filler {
         self.circled
     }
 
+    /// Puts the filler in the stopped state, as if it had attached (unit tests of controllers
+    /// built on it).
+    #[cfg(test)]
+    pub(crate) fn stop_for_test(&mut self) {
+        self.state = FillState::Stopped;
+    }
+
     fn set_state(&mut self, s: FillState, now: f32) {
         if s != self.state {
             self.state = s;
