@@ -649,6 +649,11 @@ impl FillTransport {
         let now = r.time_s;
         let g = self.goal_dir?;
         let e = axis_offset(g, r.pose.theta);
+        let let_go = Actuation {
+            attach: AttachCommand::Detach,
+            ..Actuation::coasting()
+        }
+        .with_led(Color::Blue);
         let Some(t0) = self.realigning_since else {
             let off = r.attached && e.abs() > self.push_within;
             if !off {
@@ -661,13 +666,7 @@ impl FillTransport {
             }
             self.misaligned_since = None;
             self.realigning_since = Some(now);
-            return Some(
-                Actuation {
-                    attach: AttachCommand::Detach,
-                    ..Actuation::coasting()
-                }
-                .with_led(Color::Blue),
-            );
+            return Some(let_go);
         };
         if r.attached && now > t0 {
             // Attached again (the detach of the first tick has been applied by now).
@@ -675,16 +674,11 @@ impl FillTransport {
                 self.realigning_since = None;
                 return None;
             }
-            return Some(
-                Actuation {
-                    attach: AttachCommand::Detach,
-                    ..Actuation::coasting()
-                }
-                .with_led(Color::Blue),
-            );
+            return Some(let_go);
         }
         if now - t0 > self.realign_timeout_s {
             self.realigning_since = None;
+            self.filler.release();
             self.start_pushing();
             return None;
         }
@@ -1093,6 +1087,8 @@ mod tests {
             t += 0.1;
         }
         assert!(t > start + 9.9, "gave up after {} s", t - start);
+        // Its filler moves again (the `edge` pusher follows edges with it).
+        assert_ne!(ft.filler.fill_state(), FillState::Stopped);
         // With `realign_s = 0` an attached robot stays attached whatever its heading.
         let layout2 = layout.clone();
         let mut off = FillTransport::new(

@@ -396,6 +396,14 @@ impl Filler {
         self.circled
     }
 
+    /// Lets a stopped filler move again: it approaches the object and follows edges anew (a
+    /// robot that let go of the object and lost it).
+    pub fn release(&mut self) {
+        if self.state == FillState::Stopped {
+            self.state = FillState::Approach;
+        }
+    }
+
     /// Puts the filler in the stopped state, as if it had attached (unit tests of controllers
     /// built on it).
     #[cfg(test)]
