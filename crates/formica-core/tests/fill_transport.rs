@@ -130,3 +130,29 @@ fn a_crowd_jammed_around_a_small_object_still_delivers_it() {
         "the jammed object moved to {left} m from the goal"
     );
 }
+
+#[test]
+fn with_relays_pushers_push_toward_a_relay_where_the_goal_light_is_behind_a_wall() {
+    // Queiroz & MacRae's corner map: the goal stands behind a 2 m wall from the west wall,
+    // and relays at its open end lead the box round it. Until results format 15 a pusher
+    // also vetoed any push whose object lay away from where its light sensors last saw the
+    // goal (north, through the wall), so it never pushed toward a relay: 0 of 50 seeds, every
+    // box pressed into the wall. Seed 2 now arrives (658 s in format 15).
+    let text = shipped_text("qm-corner.toml");
+    let overrides = vec![(
+        "robots.0.controller".to_string(),
+        toml::Value::String("fill-transport".into()),
+    )];
+    let sc = Scenario::parse_with_overrides(&text, "qm-corner.toml", &overrides, ("t", ""))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut run = start(&sc, 2);
+    let outcome = run.run_to_end();
+    let r = run.result();
+    assert_eq!(
+        outcome,
+        Outcome::Success,
+        "after {:.0} s, goal distance {:?}",
+        r.sim_time_s,
+        r.goal_distance_m
+    );
+}

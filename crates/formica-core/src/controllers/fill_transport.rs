@@ -19,9 +19,9 @@
 //! takes a dark light ring as "hidden by the object" only if the object's centre lies within
 //! `occluded_within_deg` of that direction (otherwise neighbours hide the goal, or the robot
 //! stands on the goal's side: the pusher is told that the goal is not hidden, and does not
-//! push). The lap also measures the pseudo object: the pusher takes proximity hits
-//! as the object out to the farthest distance from the centre at which the robot followed the
-//! edge, plus `reach_margin` (a fixed `object_reach` too small for the pseudo object makes
+//! push; without relays only, see [`Params::occluded_within_deg`]). The lap also measures the
+//! pseudo object: the pusher takes proximity hits as the object out to the farthest distance
+//! from the centre at which the robot followed the edge, plus `reach_margin` (a fixed `object_reach` too small for the pseudo object makes
 //! pushers near its ends take it for an obstacle, lose it and crowd); with relays, the farthest
 //! point of the outline it followed ([`Reach::Outline`]), so that an obstacle followed on the
 //! way does not count. `pusher = "edge"` swaps the occlusion controller for the filler's own
@@ -190,7 +190,10 @@ pub struct Params {
     /// Occlusion with memory: a pusher takes the goal as hidden *by the object* only if the
     /// object's centre lies within this angle (degrees) of the goal's last seen direction;
     /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
-    /// Default 90; 180 turns the check off.
+    /// Default 90; 180 turns the check off. Without relays only: with relays the goal is what
+    /// the camera shows (the real goal or a relay), and the pusher's colour scan checks that
+    /// the object lies toward it; the light's last direction would veto pushing toward a relay
+    /// (results format 15).
     pub occluded_within_deg: f32,
     /// Seconds after which a filler whose lap has not advanced by `stall_deg` past its record
     /// (its farthest so far, either way round; going back and forth is no progress) becomes a
@@ -878,7 +881,7 @@ impl FillTransport {
         if self.pusher_kind == Pusher::Edge {
             return self.edge_push(r, rng);
         }
-        if self.veto {
+        if self.veto && !self.pusher.params().relays {
             self.pusher.veto_hidden();
         }
         let act = self.pusher.step(r, rng);
