@@ -21,6 +21,21 @@ pub fn shipped(name: &str) -> Scenario {
     Scenario::parse(&shipped_text(name), name).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Shipped scenario `name` with `sets` applied as `formica run --set KEY=VALUE` applies them
+/// (each value is TOML text).
+pub fn shipped_with(name: &str, sets: &[(&str, &str)]) -> Scenario {
+    let overrides: Vec<(String, toml::Value)> = sets
+        .iter()
+        .map(|(k, v)| {
+            let t: toml::Table =
+                toml::from_str(&format!("v = {v}")).unwrap_or_else(|e| panic!("{k} = {v}: {e}"));
+            (k.to_string(), t["v"].clone())
+        })
+        .collect();
+    Scenario::parse_with_overrides(&shipped_text(name), name, &overrides, ("t", ""))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// A run of `sc` with the given seed.
 pub fn start(sc: &Scenario, seed: u64) -> Run {
     let opts = RunOptions {

@@ -2,9 +2,9 @@
 //! object to the goal, on the shipped scenarios.
 
 mod common;
-use common::{shipped, shipped_text, start};
+use common::{shipped, shipped_with, start};
 
-use formica::{Outcome, Scenario};
+use formica::Outcome;
 
 /// Runs `name` with `seed` to the end and checks the whole mission: robots attached inside the
 /// cavity (the pseudo object is clearly more convex), then the object reached the goal.
@@ -63,18 +63,9 @@ fn attached_robots_that_realign_with_the_goal_free_a_turned_arc() {
     // attached robots turned with it and skidded sideways against the pushers, and the arc
     // stopped 1.2 m from the goal. Robots that let go, turn onto the goal's axis and attach
     // again (`realign_s`, default 10 s) let it roll on to the goal.
-    let text = shipped_text("fill-transport-arc.toml");
     let run = |realign_s: f32| {
-        let overrides = vec![(
-            "robots.0.params".to_string(),
-            toml::Value::Table(toml::Table::from_iter([(
-                "realign_s".to_string(),
-                toml::Value::Float(realign_s.into()),
-            )])),
-        )];
-        let sc =
-            Scenario::parse_with_overrides(&text, "fill-transport-arc.toml", &overrides, ("t", ""))
-                .unwrap_or_else(|e| panic!("{e}"));
+        let params = format!("{{ realign_s = {realign_s:.1} }}");
+        let sc = shipped_with("fill-transport-arc.toml", &[("robots.0.params", &params)]);
         let mut run = start(&sc, 5);
         let outcome = run.run_to_end();
         (outcome, run.result().sim_time_s)
@@ -89,7 +80,6 @@ fn attached_robots_that_realign_with_the_goal_free_a_turned_arc() {
 fn a_crowd_jammed_around_a_small_object_still_delivers_it() {
     // Queiroz & MacRae's protocol with 30 robots and their 0.4 m disc: the fillers ring the
     // disc two deep and none can complete a lap, so without the stall rule nobody ever pushes.
-    let text = shipped_text("seed-transport.toml");
     let qm = |stall_s: f32, duration_s: f32| {
         let sets = [
             ("lights.0.at", "[1.0, 1.0]"),
@@ -107,16 +97,7 @@ fn a_crowd_jammed_around_a_small_object_still_delivers_it() {
             ("robots.0.params", &format!("{{ stall_s = {stall_s:.1} }}")),
             ("run.duration_s", &format!("{duration_s:.1}")),
         ];
-        let overrides: Vec<(String, toml::Value)> = sets
-            .iter()
-            .map(|(k, v)| {
-                let t: toml::Table = toml::from_str(&format!("v = {v}")).unwrap();
-                (k.to_string(), t["v"].clone())
-            })
-            .collect();
-        let sc =
-            Scenario::parse_with_overrides(&text, "seed-transport.toml", &overrides, ("t", ""))
-                .unwrap_or_else(|e| panic!("{e}"));
+        let sc = shipped_with("seed-transport.toml", &sets);
         let mut run = start(&sc, 2);
         let outcome = run.run_to_end();
         (outcome, run.result().goal_distance_m.unwrap_or(0.0))
@@ -138,13 +119,10 @@ fn with_relays_pushers_push_toward_a_relay_where_the_goal_light_is_behind_a_wall
     // also vetoed any push whose object lay away from where its light sensors last saw the
     // goal (north, through the wall), so it never pushed toward a relay: 0 of 50 seeds, every
     // box pressed into the wall. Seed 2 now arrives (658 s in format 15).
-    let text = shipped_text("qm-corner.toml");
-    let overrides = vec![(
-        "robots.0.controller".to_string(),
-        toml::Value::String("fill-transport".into()),
-    )];
-    let sc = Scenario::parse_with_overrides(&text, "qm-corner.toml", &overrides, ("t", ""))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let sc = shipped_with(
+        "qm-corner.toml",
+        &[("robots.0.controller", "\"fill-transport\"")],
+    );
     let mut run = start(&sc, 2);
     let outcome = run.run_to_end();
     let r = run.result();

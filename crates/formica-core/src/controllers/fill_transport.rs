@@ -21,11 +21,11 @@
 //! stands on the goal's side: the pusher is told that the goal is not hidden, and does not
 //! push; without relays only, see [`Params::occluded_within_deg`]). The lap also measures the
 //! pseudo object: the pusher takes proximity hits as the object out to the farthest distance
-//! from the centre at which the robot followed the edge, plus `reach_margin` (a fixed `object_reach` too small for the pseudo object makes
-//! pushers near its ends take it for an obstacle, lose it and crowd); with relays, the farthest
-//! point of the outline it followed ([`Reach::Outline`]), so that an obstacle followed on the
-//! way does not count. `pusher = "edge"` swaps the occlusion controller for the filler's own
-//! edge following.
+//! from the centre at which the robot followed the edge, plus `reach_margin` (a fixed
+//! `object_reach` too small for the pseudo object makes pushers near its ends take it for an
+//! obstacle, lose it and crowd); with relays, the farthest point of the outline it followed
+//! ([`Reach::Outline`]), so that an obstacle followed on the way does not count.
+//! `pusher = "edge"` swaps the occlusion controller for the filler's own edge following.
 //!
 //! **Attached robots keep their wheels on the floor** (issue 10): braking with locked wheels
 //! they would hold the pseudo object with up to their drive force each, and pushing along
