@@ -140,7 +140,8 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
     if w.groups[g].controller != "occlusion" {
         return None;
     }
-    let p: Params = formica::controller::parse_params(group_params(sc, g).as_ref()).ok()?;
+    let p: Params =
+        formica::controller::parse_params_with_defaults(group_params(sc, g).as_ref()).ok()?;
     let t = w.target?;
     let radius = object_radius(w, t);
     if p.perception != Perception::Beacon || p.object_reach >= radius + 0.2 {
@@ -191,7 +192,7 @@ fn group_params(sc: &Scenario, g: usize) -> Option<toml::Table> {
 /// `relay.goal_color`, since then no robot ever sees the goal (relays never form, and every
 /// robot takes the goal for hidden).
 fn goal_color_warning(sc: &Scenario, g: usize) -> Option<String> {
-    use formica::controller::parse_params;
+    use formica::controller::parse_params_with_defaults as parse_params;
     use formica::controllers::{fill_transport, occlusion};
     let params = group_params(sc, g);
     let p: occlusion::Params = match sc.spec.robots[g].get_ref().controller.get_ref().as_str() {

@@ -183,7 +183,7 @@ pub struct Key {
 /// types' fields.
 pub fn keys(schema: &Value) -> Vec<Key> {
     let mut out = Vec::new();
-    walk(schema, "", &mut out);
+    walk(schema, "", None, &mut out);
     out
 }
 
@@ -332,7 +332,9 @@ fn description(s: &Value) -> String {
         .replace('|', "\\|")
 }
 
-fn walk(schema: &Value, prefix: &str, out: &mut Vec<Key>) {
+/// `inherited`: the default of the table being walked as its parent sets it, which wins over
+/// the defaults of the table's own type (`fill-transport`'s `fill` sets `object_reach`).
+fn walk(schema: &Value, prefix: &str, inherited: Option<&Value>, out: &mut Vec<Key>) {
     let Some(props) = schema.get("properties").and_then(Value::as_object) else {
         return;
     };
@@ -341,8 +343,12 @@ fn walk(schema: &Value, prefix: &str, out: &mut Vec<Key>) {
         .and_then(Value::as_array)
         .map(|r| r.iter().filter_map(Value::as_str).collect())
         .unwrap_or_default();
-    let mut nested: Vec<(String, Value)> = Vec::new();
+    let mut nested: Vec<(String, Value, Option<Value>)> = Vec::new();
     for (k, s) in props {
+        let own = inherited
+            .and_then(|d| d.get(k))
+            .filter(|v| !v.is_null())
+            .or_else(|| s.get("default"));
         let path = if prefix.is_empty() {
             k.clone()
         } else {
@@ -351,7 +357,7 @@ fn walk(schema: &Value, prefix: &str, out: &mut Vec<Key>) {
         let default = if required.contains(&k.as_str()) {
             "required".to_string()
         } else {
-            s.get("default").map(toml_value).unwrap_or_default()
+            own.map(toml_value).unwrap_or_default()
         };
         let mut key = Key {
             path: path.clone(),
@@ -363,14 +369,14 @@ fn walk(schema: &Value, prefix: &str, out: &mut Vec<Key>) {
         };
         if s.get("properties").is_some() {
             key.table = true;
-            nested.push((path, s.clone()));
+            nested.push((path, s.clone(), own.cloned()));
         } else if let Some(items) = s.get("items").filter(|i| i.get("properties").is_some()) {
             key.table = true;
-            nested.push((format!("{path}[]"), items.clone()));
+            nested.push((format!("{path}[]"), items.clone(), None));
         } else if let Some(vs) = variants(s) {
             key.table = true;
             for (v, vs) in vs {
-                nested.push((path.clone(), single(v, vs)));
+                nested.push((path.clone(), single(v, vs), None));
             }
         }
         if key.table && key.default != "required" {
@@ -379,8 +385,8 @@ fn walk(schema: &Value, prefix: &str, out: &mut Vec<Key>) {
         }
         out.push(key);
     }
-    for (path, s) in nested {
-        walk(&s, &path, out);
+    for (path, s, d) in nested {
+        walk(&s, &path, d.as_ref(), out);
     }
 }
 

@@ -362,6 +362,34 @@ pub fn parse_params<P: serde::de::DeserializeOwned>(
         .map_err(|e| e.message().trim().to_string())
 }
 
+/// As [`parse_params`], but keys the table leaves out keep `P::default()`'s values in nested
+/// tables too. Use it when `P`'s defaults set keys of a nested table that differ from the
+/// nested type's own defaults (`fill-transport` sets `fill.object_reach`): with
+/// [`parse_params`], a user who sets one key of that table would get the nested type's
+/// defaults for all the others.
+pub fn parse_params_with_defaults<P>(params: Option<&toml::Table>) -> Result<P, String>
+where
+    P: serde::de::DeserializeOwned + serde::Serialize + Default,
+{
+    let mut table = toml::Table::try_from(P::default()).map_err(|e| e.to_string())?;
+    if let Some(user) = params {
+        overlay(&mut table, user);
+    }
+    parse_params(Some(&table))
+}
+
+/// Writes `top`'s keys over `base`, merging tables that both hold.
+fn overlay(base: &mut toml::Table, top: &toml::Table) {
+    for (k, v) in top {
+        match (base.get_mut(k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(t)) => overlay(b, t),
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
+
 /// Checks controller parameters: every `positive` value must be a finite number above zero,
 /// every `non_negative` one a finite number at least zero. The error names the parameter.
 pub fn check_params(positive: &[(&str, f32)], non_negative: &[(&str, f32)]) -> Result<(), String> {

@@ -66,6 +66,56 @@ fn a_robot_in_a_cavity_corner_stops_and_attaches() {
     assert_eq!(r.led, formica::scenario::Color::Blue);
 }
 
+/// How far from the spot that touches both walls of the U's inner corner a filler attaches
+/// (with `params`) after following the inner face of the top arm east from `x`.
+fn settles_from(x: f32, params: &str) -> f32 {
+    // Inner corner of the U at (-0.85, 0.3); the robot 3 cm below the arm, the arm on its left.
+    let body = format!("{U}{}", filling_robots(&[[x, 0.2, 0.0]], params));
+    let mut run = start(&scenario(&body), 1);
+    run_for(&mut run, 40.0);
+    let r = &run.world.robots[0];
+    assert!(r.attached.is_some(), "state {}", r.state);
+    let p = run.world.robot_pose(0).position();
+    let apex = formica::geometry::Vec2::new(-0.85 - 0.0704, 0.3 - 0.0704);
+    (p - apex).length()
+}
+
+#[test]
+fn a_filler_settles_in_the_apex_of_a_corner_not_where_it_first_feels_it() {
+    // The stop test passes with the corner's far wall about 10 cm ahead; creeping toward what
+    // the ring sees but does not touch takes the robot into the apex.
+    let off = settles_from(-1.15, "");
+    // The Khepera IV's ring reads 1 at any gap under 4 cm, so "touching" means within about
+    // 4 cm of each wall: up to 0.057 m from the apex spot.
+    assert!(off < 0.055, "attached {off:.3} m from the corner's apex");
+    // Creeping toward the summed readings (the wall beside it dominates) stops it short.
+    let off_old = settles_from(-1.15, "creep_into_gaps = false");
+    assert!(
+        off_old > off + 0.02,
+        "old creep {off_old:.3} m, new {off:.3} m"
+    );
+}
+
+#[test]
+fn robots_fill_the_corner_of_the_seeds_l_with_three_discs_wholly_inside() {
+    // The seed's L (analysis 3) with the noise preset: its cavity holds 4 discs in a lattice;
+    // robots that settle one by one put 3 wholly inside (creeping into the summed readings
+    // left them short of the corner: 2).
+    let sc = common::shipped("seed-fill-l.toml");
+    for seed in 1..=3 {
+        let mut run = start(&sc, seed);
+        run.run_to_end();
+        let res = run.result();
+        assert_eq!(res.cavity_capacity, Some(4));
+        assert!(
+            res.cavity_robots >= Some(3),
+            "seed {seed}: {:?}",
+            res.cavity_robots
+        );
+        assert_eq!(res.false_stops, Some(0), "seed {seed}");
+    }
+}
+
 #[test]
 fn a_robot_beside_a_flat_wall_does_not_stop() {
     // Beside the box's east face, then free to follow its (convex) outline for two minutes.

@@ -56,7 +56,8 @@
 //! the object whenever it sees it (`relay.gate_memory_s`, see [`Params::pusher`]).
 
 use crate::controller::{
-    parse_params, Actuation, AttachCommand, Controller, ControllerFactory, HeadingFilter, RobotRng,
+    parse_params_with_defaults, Actuation, AttachCommand, Controller, ControllerFactory,
+    HeadingFilter, RobotRng,
 };
 use crate::controllers::filling::{self, FillState, Filler, FULL_TURN};
 use crate::controllers::occlusion::{self, light_contrast, Occlusion};
@@ -233,6 +234,7 @@ impl Default for Params {
                 // `filling`'s 0.95 made no clear difference here (50 seeds: 245 against 247
                 // successes over the five concave scenarios); the figures were measured at 0.85.
                 follow_reading: 0.85,
+                creep_into_gaps: false,
                 ..filling::Params::default()
             },
             push: occlusion::Params::default(),
@@ -294,7 +296,7 @@ pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
-    let mut p: Params = parse_params(params)?;
+    let mut p: Params = parse_params_with_defaults(params)?;
     p.push = p.pusher();
     p.fill.validate().map_err(|e| format!("fill: {e}"))?;
     p.push.validate().map_err(|e| format!("push: {e}"))?;
@@ -928,6 +930,24 @@ mod tests {
     use crate::scenario::SensorConfig;
     use rand::SeedableRng;
     use std::f32::consts::{FRAC_PI_2, TAU};
+
+    #[test]
+    fn setting_one_fill_key_keeps_the_other_fill_defaults_of_fill_transport() {
+        // A user who sets one key of the nested `fill` table gets fill-transport's defaults
+        // for the rest, not `filling`'s (object_reach none, follow_reading 0.95).
+        let t: toml::Table = toml::from_str("fill = { creep_speed = 0.03 }").unwrap();
+        let p: Params = parse_params_with_defaults(Some(&t)).unwrap();
+        let d = Params::default();
+        assert_eq!(p.fill.creep_speed, 0.03);
+        assert_eq!(p.fill.object_reach, Some(0.21));
+        assert_eq!(p.fill.object_reach, d.fill.object_reach);
+        assert_eq!(p.fill.follow_reading, d.fill.follow_reading);
+        assert_eq!(p.fill.creep_into_gaps, d.fill.creep_into_gaps);
+        // Unknown keys in a nested table are still errors.
+        let t: toml::Table = toml::from_str("fill = { creep = 0.03 }").unwrap();
+        let e = parse_params_with_defaults::<Params>(Some(&t)).unwrap_err();
+        assert!(e.contains("creep"), "{e}");
+    }
 
     /// Proximity readings of a robot with an edge close on its left (0.9 on the sensor
     /// nearest +90 degrees, nothing elsewhere).

@@ -10,9 +10,10 @@
 //!    Where the edge turns away (a convex corner), it arcs left for up to `lost_s` to find it
 //!    again, then approaches the light again.
 //! 3. **check**: where the object surrounds the robot over more than pi, it stops and creeps
-//!    into the spot. The test, from the proximity ring: at least `stop_count` of 8 sensors
-//!    (the seed's 4; scaled for other rings) read more than `fire_threshold` *and are
-//!    object-like*. A flat wall never lights more than 3 of the 8 sensors at that threshold;
+//!    into the spot, toward what its ring sees but does not yet touch (`creep_into_gaps`), so
+//!    that it settles in a corner's apex rather than where it first felt the corner. The
+//!    test, from the proximity ring: at least `stop_count` of 8 sensors (the seed's 4; scaled
+//!    for other rings) read more than `fire_threshold` *and are object-like*. A flat wall never lights more than 3 of the 8 sensors at that threshold;
 //!    the inside of a 90 degree corner, or a wall next to an attached robot, lights 4 or 5.
 //!    A robot pressed on 2 sensors (`strong_count`) with a third firing also checks: in an
 //!    obtuse corner only some headings light the 4th sensor, so the check swings the heading
@@ -41,7 +42,7 @@
 //! with the seed's sensors only (proximity and light).
 
 use crate::controller::{
-    parse_params, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
+    parse_params_with_defaults, Actuation, AttachCommand, Controller, ControllerFactory, RobotRng,
 };
 use crate::controllers::occlusion::{self, is_robot_colour, light_contrast};
 use crate::geometry::{wrap_angle, Vec2};
@@ -135,6 +136,13 @@ pub struct Params {
     pub retry_s: f32,
     /// Creeping speed into the spot during the check (m/s). Default 0.04.
     pub creep_speed: f32,
+    /// During the check, creep toward what the ring sees but does not yet touch (each
+    /// object-like reading weighted by how far it is from pressed, `1 - reading`), so that a
+    /// robot whose stop test passes with a corner's far wall still 10 cm ahead settles in the
+    /// corner's apex. False: creep toward the summed readings, which the nearest wall
+    /// dominates (the robot presses into the wall beside it and stops short of the apex).
+    /// Default true (`fill-transport` sets false: its figures were measured so).
+    pub creep_into_gaps: bool,
     /// Amplitude (rad) of the heading swing during the check. Default 0.25.
     pub swing: f32,
     /// Ignore proximity hits explained by moving (non-blue) neighbours seen by the camera.
@@ -178,6 +186,7 @@ impl Default for Params {
             attach_timeout_s: 3.0,
             retry_s: 5.0,
             creep_speed: 0.04,
+            creep_into_gaps: true,
             swing: 0.25,
             filter_neighbours: true,
             require_object: true,
@@ -241,7 +250,7 @@ pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
-    let p: Params = parse_params(params)?;
+    let p: Params = parse_params_with_defaults(params)?;
     p.validate()?;
     let layout = layout.clone();
     Ok(ControllerFactory::new(p.needs(), move || {
@@ -292,6 +301,9 @@ struct Percept {
     inside: bool,
     /// Summed vector of object-like readings (robot frame).
     obj: Vec2,
+    /// Summed vector of object-like readings above the noise floor, each weighted by
+    /// `1 - reading`: toward what is seen but not touched (robot frame).
+    gaps: Vec2,
     /// Largest object-like reading.
     obj_max: f32,
     /// Object-like sensors above the firing threshold.
@@ -544,6 +556,7 @@ impl Filler {
                 out.nb += dir * *v;
             } else {
                 out.obj += dir * *v;
+                out.gaps += dir * (1.0 - v.min(1.0));
                 out.obj_max = out.obj_max.max(*v);
                 if *v > self.p.fire_threshold {
                     out.count += 1;
@@ -743,8 +756,13 @@ impl Filler {
                     }
                     // Creep into the spot, swinging the heading by `swing` so that the ring
                     // samples it at all offsets.
-                    let beta = if pc.obj.length() > 1e-6 {
-                        ops::angle_of(pc.obj)
+                    let toward = if self.p.creep_into_gaps && pc.gaps.length() > 0.05 {
+                        pc.gaps
+                    } else {
+                        pc.obj
+                    };
+                    let beta = if toward.length() > 1e-6 {
+                        ops::angle_of(toward)
                     } else {
                         0.0
                     };

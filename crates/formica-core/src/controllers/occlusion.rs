@@ -59,7 +59,9 @@
 //! saw the goal (`relay.occlusion_bins`, instead of `occluder_angle_deg`), and robots go round the
 //! object the shorter way to its back (`circle_side = "shortest"`).
 
-use crate::controller::{parse_params, Actuation, Controller, ControllerFactory, RobotRng};
+use crate::controller::{
+    parse_params_with_defaults, Actuation, Controller, ControllerFactory, RobotRng,
+};
 use crate::controllers::relay::{self, Relay};
 use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
@@ -271,7 +273,7 @@ pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
-    let p: Params = parse_params(params)?;
+    let p: Params = parse_params_with_defaults(params)?;
     p.validate()?;
     let layout = layout.clone();
     let needs = Occlusion::needs(&p);
