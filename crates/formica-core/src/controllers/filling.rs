@@ -13,11 +13,11 @@
 //!    into the spot, toward what its ring sees but does not yet touch (`creep_into_gaps`), so
 //!    that it settles in a corner's apex rather than where it first felt the corner. The
 //!    test, from the proximity ring: at least `stop_count` of 8 sensors (the seed's 4; scaled
-//!    for other rings) read more than `fire_threshold` *and are object-like*. A flat wall never lights more than 3 of the 8 sensors at that threshold;
-//!    the inside of a 90 degree corner, or a wall next to an attached robot, lights 4 or 5.
-//!    A robot pressed on 2 sensors (`strong_count`) with a third firing also checks: in an
-//!    obtuse corner only some headings light the 4th sensor, so the check swings the heading
-//!    by `swing`.
+//!    for other rings) read more than `fire_threshold` *and are object-like*. A flat wall
+//!    never lights more than 3 of the 8 sensors at that threshold; the inside of a 90 degree
+//!    corner, or a wall next to an attached robot, lights 4 or 5. A robot pressed on 2 sensors
+//!    (`strong_count`) with a third firing also checks: in an obtuse corner only some headings
+//!    light the 4th sensor, so the check swings the heading by `swing`.
 //! 4. **attach**: if the test passes on at least a third of the ticks of the `hold_s` check
 //!    (and the robot stays in contact), the robot asks to attach (`AttachCommand::Attach`,
 //!    once snug) until `Readings::attached` says it worked, then turns its LEDs blue and

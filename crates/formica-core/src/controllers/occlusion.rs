@@ -9,8 +9,9 @@
 //!    ([`Readings::scan_color`]) and random-walks while it sees none. It does not shove what is
 //!    in its way.
 //! 2. **circle**: follows the object's outline with the **left-hand rule** (default
-//!    `circle_side = "left"`; with relays `"shortest"`): the object stays on the robot's left, so robots go round it
-//!    counter-clockwise seen from above, `circle_gap` from its surface, watching the goal light.
+//!    `circle_side = "left"`; with relays `"shortest"`): the object stays on the robot's left,
+//!    so robots go round it counter-clockwise seen from above, `circle_gap` from its surface,
+//!    watching the goal light.
 //! 3. **push**: where the object hides the goal (the light ring's contrast, its strongest
 //!    reading above the mean of its weaker half, stays below `dark_contrast` for `hidden_s`;
 //!    ambient light and noise never read exactly zero), it turns to face the object along the
@@ -38,10 +39,10 @@
 //!
 //! Where the object's surface is: with the camera, the nearest object-coloured bin of the scan
 //! gives the inward surface normal and the gap (to the scan's resolution), and proximity hits in
-//! other directions or at other distances are neighbours (bins of robot colours) or walls. With the beacon the robot
-//! only knows the centre: within `object_reach` of it, proximity hits on the half facing the
-//! centre are taken to be the object (neighbours and walls there fool it, as in the seed);
-//! farther out every hit is an obstacle.
+//! other directions or at other distances are neighbours (bins of robot colours) or walls.
+//! With the beacon the robot only knows the centre: within `object_reach` of it, proximity hits
+//! on the half facing the centre are taken to be the object (neighbours and walls there fool
+//! it, as in the seed); farther out every hit is an obstacle.
 //!
 //! Positions are noisy: progress (the escape time-outs) is measured on a smoothed position.
 //!
