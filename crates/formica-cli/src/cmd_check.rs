@@ -192,12 +192,12 @@ fn group_params(sc: &Scenario, g: usize) -> Option<toml::Table> {
 /// `relay.goal_color`, since then no robot ever sees the goal (relays never form, and every
 /// robot takes the goal for hidden).
 fn goal_color_warning(sc: &Scenario, g: usize) -> Option<String> {
-    use formica::controller::parse_params_with_defaults as parse_params;
+    use formica::controller::parse_params_with_defaults;
     use formica::controllers::{fill_transport, occlusion};
     let params = group_params(sc, g);
     let p: occlusion::Params = match sc.spec.robots[g].get_ref().controller.get_ref().as_str() {
-        "occlusion" => parse_params(params.as_ref()).ok()?,
-        "fill-transport" => parse_params::<fill_transport::Params>(params.as_ref())
+        "occlusion" => parse_params_with_defaults(params.as_ref()).ok()?,
+        "fill-transport" => parse_params_with_defaults::<fill_transport::Params>(params.as_ref())
             .ok()?
             .pusher(),
         _ => return None,

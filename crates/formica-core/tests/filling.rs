@@ -76,7 +76,8 @@ fn settles_from(x: f32, params: &str) -> f32 {
     let r = &run.world.robots[0];
     assert!(r.attached.is_some(), "state {}", r.state);
     let p = run.world.robot_pose(0).position();
-    let apex = formica::geometry::Vec2::new(-0.85 - 0.0704, 0.3 - 0.0704);
+    let radius = formica::robot::RobotModel::khepera4().radius;
+    let apex = formica::geometry::Vec2::new(-0.85 - radius, 0.3 - radius);
     (p - apex).length()
 }
 
