@@ -5,6 +5,7 @@ use anyhow::{anyhow, Result};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// The embedded font (DejaVu Sans; licence in `assets/DejaVuSans-LICENSE.txt`).
@@ -118,16 +119,25 @@ where
     });
     let cats = p.categories.clone();
     let longest = cats.iter().map(|c| c.chars().count()).max().unwrap_or(1);
+    // Labels too long to sit side by side are turned upright (see `save_category`).
+    let upright = upright_labels(root.dim_in_pixel().0, k, longest);
+    let label_area = if upright {
+        label_height(longest)
+    } else if longest > 12 {
+        70
+    } else {
+        45
+    };
     let mut chart = ChartBuilder::on(root)
         .caption(&p.title, (FAMILY, 22))
         .margin(15)
-        .x_label_area_size(if longest > 12 { 70 } else { 45 })
+        .x_label_area_size(label_area)
         .y_label_area_size(65)
         .build_cartesian_2d(-0.5f64..(k as f64 - 0.5), y0..y1)
         .map_err(|e| anyhow!("{e}"))?;
     let fmt = move |x: &f64| {
         let i = x.round();
-        if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < cats.len() {
+        if !upright && (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < cats.len() {
             cats[i as usize].clone()
         } else {
             String::new()
@@ -138,12 +148,23 @@ where
         .x_labels(k + 1)
         .x_label_formatter(&fmt)
         .disable_x_mesh()
-        .x_desc(&p.x_desc)
+        .x_desc(if upright { "" } else { p.x_desc.as_str() })
         .y_desc(&p.y_desc)
         .label_style((FAMILY, 13))
         .axis_desc_style((FAMILY, 15))
         .draw()
         .map_err(|e| anyhow!("{e}"))?;
+    if upright {
+        // Drawn by hand: the mesh centres each label on its tick, rotated or not.
+        let style = TextStyle::from((FAMILY, 13).into_font())
+            .transform(FontTransform::Rotate90)
+            .pos(Pos::new(HPos::Left, VPos::Top));
+        for (i, c) in p.categories.iter().enumerate() {
+            let (px, py) = chart.backend_coord(&(i as f64, y0));
+            root.draw_text(c, &style, (px + 7, py + 8))
+                .map_err(|e| anyhow!("{e}"))?;
+        }
+    }
     let ns = p.series.len().max(1);
     let width = 0.5_f64.min(0.15 * ns as f64);
     for (s, (name, ests)) in p.series.iter().enumerate() {
@@ -299,14 +320,96 @@ pub fn save_category(dir: &Path, stem: &str, p: &CategoryPlot) -> Result<()> {
         .iter()
         .map(|c| c.chars().count())
         .max()
-        .unwrap_or(1) as u32;
-    let per = (8 * longest + 20).max(90);
-    let w = (160 + per * p.categories.len() as u32).clamp(640, 2400);
-    both!(dir, stem, (w, 480), draw_category, p)
+        .unwrap_or(1);
+    let k = p.categories.len().max(1);
+    let per = (8 * longest as u32 + 20).max(90);
+    let w = (160 + per * k as u32).clamp(640, 2400);
+    let size = if upright_labels(w, k, longest) {
+        // Upright labels: narrow columns, and the plot grows down by the longest label.
+        let w = (160 + 40 * k as u32).clamp(640, 2400);
+        (w, 420 + label_height(longest))
+    } else {
+        (w, 480)
+    };
+    both!(dir, stem, size, draw_category, p)
+}
+
+/// Whether `k` category labels of up to `longest` characters are too long to sit side by side
+/// on a plot `width` pixels wide (they are then drawn upright).
+fn upright_labels(width: u32, k: usize, longest: usize) -> bool {
+    let per = (8 * longest as u32 + 20).max(90);
+    160 + per * k as u32 > width.max(640)
+}
+
+/// Height (pixels) of the label area that holds upright labels of `longest` characters.
+fn label_height(longest: usize) -> u32 {
+    (7 * longest as u32 + 20).clamp(45, 600)
 }
 
 /// Saves a line plot as PNG and SVG.
 pub fn save_lines(dir: &Path, stem: &str, p: &LinePlot) -> Result<()> {
     let size = if p.equal_axes { (900, 640) } else { (800, 520) };
     both!(dir, stem, size, draw_lines, p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plot(categories: Vec<String>) -> CategoryPlot {
+        let k = categories.len();
+        CategoryPlot {
+            title: "t".into(),
+            x_desc: "label".into(),
+            y_desc: "success rate".into(),
+            series: vec![(
+                "s".into(),
+                vec![
+                    Some(Estimate {
+                        y: 0.5,
+                        lo: 0.4,
+                        hi: 0.6
+                    });
+                    k
+                ],
+            )],
+            categories,
+            y_range: Some((0.0, 1.0)),
+            connect: false,
+        }
+    }
+
+    #[test]
+    fn long_case_labels_are_drawn_upright_and_the_picture_grows_to_hold_them() {
+        init_font().unwrap();
+        // 29 labels of 40-odd characters do not fit side by side in 2400 pixels.
+        assert!(upright_labels(2400, 29, 45));
+        assert!(!upright_labels(640, 3, 10));
+        assert!(!upright_labels(2400, 5, 30));
+        let dir = std::env::temp_dir().join(format!("formica-plots-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // Width and height from the PNG header (IHDR).
+        let png_size = |stem: &str| {
+            let b = std::fs::read(dir.join(format!("{stem}.png"))).unwrap();
+            let be = |i: usize| u32::from_be_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+            (be(16), be(20))
+        };
+        let cats: Vec<String> = (0..29)
+            .map(|i| format!("case {i}: a label as long as a study's case labels are"))
+            .collect();
+        save_category(&dir, "long", &plot(cats)).unwrap();
+        let svg = std::fs::read_to_string(dir.join("long.svg")).unwrap();
+        assert!(svg.contains("rotate(90"), "labels are not upright");
+        assert!(
+            svg.contains(">\ncase 28: a label as long"),
+            "a label is missing"
+        );
+        let (w, h) = png_size("long");
+        assert!(w <= 2400 && h > 480, "{w} x {h}");
+        save_category(&dir, "short", &plot(vec!["5".into(), "10".into()])).unwrap();
+        let svg = std::fs::read_to_string(dir.join("short.svg")).unwrap();
+        assert!(!svg.contains("rotate(90"));
+        assert_eq!(png_size("short"), (640, 480));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
