@@ -49,7 +49,9 @@ impl Pose {
 /// Wraps an angle to (-pi, pi].
 pub fn wrap_angle(a: f32) -> f32 {
     let two_pi = std::f32::consts::TAU;
-    let mut r = a % two_pi;
+    // `a % 2 pi` is `a` itself when |a| < 2 pi (the remainder is exact), which is nearly every
+    // call: skipping the division is the same bits, and 2 % of a tick fewer instructions.
+    let mut r = if a.abs() < two_pi { a } else { a % two_pi };
     if r > std::f32::consts::PI {
         r -= two_pi;
     } else if r <= -std::f32::consts::PI {
@@ -415,6 +417,54 @@ fn monotone_hull(points: &[Vec2]) -> Vec<Vec2> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// `wrap_angle` as it was before its fast path: every angle through `%`.
+    fn wrap_angle_by_remainder(a: f32) -> f32 {
+        let two_pi = std::f32::consts::TAU;
+        let mut r = a % two_pi;
+        if r > std::f32::consts::PI {
+            r -= two_pi;
+        } else if r <= -std::f32::consts::PI {
+            r += two_pi;
+        }
+        r
+    }
+
+    proptest! {
+        #[test]
+        fn wrap_angle_gives_the_same_bits_as_the_remainder(a in -100.0f32..100.0) {
+            prop_assert_eq!(wrap_angle(a).to_bits(), wrap_angle_by_remainder(a).to_bits());
+            let w = wrap_angle(a);
+            prop_assert!(w > -std::f32::consts::PI && w <= std::f32::consts::PI, "{a} -> {w}");
+        }
+    }
+
+    #[test]
+    fn wrap_angle_keeps_the_edge_cases_of_the_remainder() {
+        let t = std::f32::consts::TAU;
+        let edges = [
+            0.0,
+            -0.0,
+            std::f32::consts::PI,
+            -std::f32::consts::PI,
+            t,
+            -t,
+            t.next_down(),
+            (-t).next_up(),
+            f32::MIN_POSITIVE,
+            1e30,
+            -1e30,
+        ];
+        for a in edges {
+            assert_eq!(
+                wrap_angle(a).to_bits(),
+                wrap_angle_by_remainder(a).to_bits(),
+                "{a}"
+            );
+        }
+        assert!(wrap_angle(f32::NAN).is_nan());
+        assert!(wrap_angle(f32::INFINITY).is_nan());
+    }
 
     #[test]
     fn self_intersecting_bowtie_is_rejected() {
