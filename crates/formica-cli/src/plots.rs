@@ -322,8 +322,7 @@ pub fn save_category(dir: &Path, stem: &str, p: &CategoryPlot) -> Result<()> {
         .max()
         .unwrap_or(1);
     let k = p.categories.len().max(1);
-    let per = (8 * longest as u32 + 20).max(90);
-    let w = (160 + per * k as u32).clamp(640, 2400);
+    let w = side_by_side_width(k, longest).clamp(640, 2400);
     let size = if upright_labels(w, k, longest) {
         // Upright labels: narrow columns, and the plot grows down by the longest label.
         let w = (160 + 40 * k as u32).clamp(640, 2400);
@@ -337,8 +336,17 @@ pub fn save_category(dir: &Path, stem: &str, p: &CategoryPlot) -> Result<()> {
 /// Whether `k` category labels of up to `longest` characters are too long to sit side by side
 /// on a plot `width` pixels wide (they are then drawn upright).
 fn upright_labels(width: u32, k: usize, longest: usize) -> bool {
-    let per = (8 * longest as u32 + 20).max(90);
-    160 + per * k as u32 > width.max(640)
+    side_by_side_width(k, longest) > width.max(640)
+}
+
+/// Width (pixels) a plot needs for `k` category labels of up to `longest` characters side by
+/// side: the axis margins and a column of at least 90 pixels per label.
+fn side_by_side_width(k: usize, longest: usize) -> u32 {
+    let per = (longest as u32)
+        .saturating_mul(8)
+        .saturating_add(20)
+        .max(90);
+    per.saturating_mul(k as u32).saturating_add(160)
 }
 
 /// Height (pixels) of the label area that holds upright labels of `longest` characters.
