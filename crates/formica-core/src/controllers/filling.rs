@@ -818,10 +818,16 @@ impl Filling {
 /// Bearing (robot frame) of a light on the ring, if the ring's contrast (see
 /// [`light_contrast`]) exceeds `threshold`.
 pub fn light_bearing(r: &Readings, layout: &SensorLayout, threshold: f32) -> Option<f32> {
-    if light_contrast(&r.light) <= threshold {
+    let contrast = light_contrast(&r.light);
+    if contrast <= threshold {
         return None;
     }
-    occlusion::light_bearing(&r.light, &layout.light_angles)
+    let angles = &layout.light_angles;
+    if r.light.len() <= angles.len() {
+        occlusion::light_bearing_with(&r.light, angles, contrast)
+    } else {
+        occlusion::light_bearing(&r.light, angles)
+    }
 }
 
 impl Controller for Filling {

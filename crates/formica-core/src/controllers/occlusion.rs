@@ -815,12 +815,13 @@ impl Occlusion {
     /// `visible_s`. `object` is the object's bearing (robot frame).
     fn goal_hidden(&mut self, r: &Readings, object: Option<f32>) -> (bool, bool) {
         let veto = std::mem::take(&mut self.veto_hidden);
+        let mut contrast = None;
         let dark = if let Some(relay) = &self.relay {
             // Relays: the goal is what the camera shows in the goal's colour.
             self.goal_lit = relay.goal_seen();
             !self.goal_lit && !veto
         } else {
-            let contrast = light_contrast(&r.light);
+            let contrast = *contrast.insert(light_contrast(&r.light));
             self.goal_lit = if self.goal_lit {
                 contrast >= self.p.dark_contrast
             } else {
@@ -829,7 +830,12 @@ impl Occlusion {
             !r.light.is_empty() && !self.goal_lit && !veto
         };
         if self.goal_lit && self.relay.is_none() {
-            if let Some(b) = light_bearing(&r.light, &self.layout.light_angles) {
+            let angles = &self.layout.light_angles;
+            let bearing = match contrast {
+                Some(c) if r.light.len() <= angles.len() => light_bearing_with(&r.light, angles, c),
+                _ => light_bearing(&r.light, angles),
+            };
+            if let Some(b) = bearing {
                 let g = wrap_angle(b + r.pose.theta);
                 self.goal_dir = Some(g);
                 self.goal_fix.add(r.pose.position(), g);
@@ -1056,13 +1062,67 @@ pub fn light_contrast(light: &[f32]) -> f32 {
     if n == 0 {
         return 0.0;
     }
+    if n == RING8 {
+        let mut sorted = [0.0f32; RING8];
+        sorted.copy_from_slice(light);
+        sort8_total(&mut sorted);
+        return contrast_of_sorted(&sorted);
+    }
     let mut sorted = [0.0f32; 64];
     let m = n.min(64);
     sorted[..m].copy_from_slice(&light[..m]);
     sorted[..m].sort_by(f32::total_cmp);
+    contrast_of_sorted(&sorted[..m])
+}
+
+/// The light contrast of a non-empty ring sorted in ascending order.
+fn contrast_of_sorted(sorted: &[f32]) -> f32 {
+    let m = sorted.len();
     let half = (m / 2).max(1);
     let background = sorted[..half].iter().sum::<f32>() / half as f32;
     sorted[m - 1] - background
+}
+
+/// Ring size with a sorting network of its own (the Khepera IV's and the e-puck's eight
+/// light sensors).
+const RING8: usize = 8;
+
+/// Sorts eight readings in the order of `f32::total_cmp`, as `sort_by(f32::total_cmp)` does,
+/// with an optimal 19-comparator network on their total-order integer keys (no branches; the
+/// light ring is sorted on every tick of every robot).
+fn sort8_total(v: &mut [f32; RING8]) {
+    // `f32::total_cmp`'s key: flip the magnitude bits of negative numbers. Its own inverse.
+    let key = |b: i32| b ^ ((((b >> 31) as u32) >> 1) as i32);
+    let [mut k0, mut k1, mut k2, mut k3, mut k4, mut k5, mut k6, mut k7] =
+        v.map(|x| key(x.to_bits() as i32));
+    // Compare-exchange: the smaller key to the left.
+    macro_rules! cx {
+        ($a:ident, $b:ident) => {
+            let lo = $a.min($b);
+            $b = $a.max($b);
+            $a = lo;
+        };
+    }
+    cx!(k0, k2);
+    cx!(k1, k3);
+    cx!(k4, k6);
+    cx!(k5, k7);
+    cx!(k0, k4);
+    cx!(k1, k5);
+    cx!(k2, k6);
+    cx!(k3, k7);
+    cx!(k0, k1);
+    cx!(k2, k3);
+    cx!(k4, k5);
+    cx!(k6, k7);
+    cx!(k2, k4);
+    cx!(k3, k5);
+    cx!(k1, k4);
+    cx!(k3, k6);
+    cx!(k1, k2);
+    cx!(k3, k4);
+    cx!(k5, k6);
+    *v = [k0, k1, k2, k3, k4, k5, k6, k7].map(|x| f32::from_bits(key(x) as u32));
 }
 
 /// Bearing of a light from the readings of sensors at `angles`: the vertex of the parabola
@@ -1072,11 +1132,18 @@ pub fn light_contrast(light: &[f32]) -> f32 {
 /// ring shows no light above its background.
 pub fn light_bearing(light: &[f32], angles: &[f32]) -> Option<f32> {
     let n = light.len().min(angles.len());
+    light_bearing_with(light, angles, light_contrast(&light[..n]))
+}
+
+/// [`light_bearing`] given the ring's [`light_contrast`] (of its first `angles.len()`
+/// readings), so that a controller that has computed it does not sort the ring again.
+pub(crate) fn light_bearing_with(light: &[f32], angles: &[f32], contrast: f32) -> Option<f32> {
+    let n = light.len().min(angles.len());
     let (i, &ri) = light[..n]
         .iter()
         .enumerate()
         .max_by(|a, b| a.1.total_cmp(b.1))?;
-    let background = ri - light_contrast(&light[..n]);
+    let background = ri - contrast;
     if ri - background <= 0.0 {
         return None;
     }
@@ -1680,6 +1747,66 @@ mod tests {
                     model.kind
                 );
             }
+        }
+    }
+
+    /// The general path of `light_contrast` (the standard sort), for comparison.
+    fn contrast_by_std_sort(light: &[f32]) -> f32 {
+        let mut v = light.to_vec();
+        v.sort_by(f32::total_cmp);
+        contrast_of_sorted(&v)
+    }
+
+    #[test]
+    fn the_sorting_network_sorts_every_zero_one_ring() {
+        // The 0-1 principle: a comparator network that sorts all 2^8 rings of zeros and ones
+        // sorts every ring.
+        for bits in 0u32..256 {
+            let mut v = [0.0f32; 8];
+            for (i, x) in v.iter_mut().enumerate() {
+                *x = ((bits >> i) & 1) as f32;
+            }
+            let mut want = v;
+            want.sort_by(f32::total_cmp);
+            sort8_total(&mut v);
+            assert_eq!(v, want, "ring {bits:08b}");
+        }
+    }
+
+    #[test]
+    fn the_sorting_network_orders_signed_zeros_infinities_and_nans_as_total_cmp() {
+        let mut v = [
+            0.5,
+            -0.0,
+            0.0,
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            -1.0,
+            f32::NEG_INFINITY,
+        ];
+        let mut want = v;
+        want.sort_by(f32::total_cmp);
+        sort8_total(&mut v);
+        let bits = |a: [f32; 8]| a.map(f32::to_bits);
+        assert_eq!(bits(v), bits(want));
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn light_contrast_of_eight_readings_is_the_standard_sorts_to_the_bit(
+            light in proptest::array::uniform8(-0.2f32..1.2),
+        ) {
+            proptest::prop_assert_eq!(
+                light_contrast(&light).to_bits(),
+                contrast_by_std_sort(&light).to_bits()
+            );
+            let angles: Vec<f32> = (0..8).map(|i| i as f32 * std::f32::consts::TAU / 8.0).collect();
+            let with = light_bearing_with(&light, &angles, contrast_by_std_sort(&light));
+            proptest::prop_assert_eq!(
+                with.map(f32::to_bits),
+                light_bearing(&light, &angles).map(f32::to_bits)
+            );
         }
     }
 }
