@@ -167,6 +167,7 @@ where
     }
     let ns = p.series.len().max(1);
     let width = 0.5_f64.min(0.15 * ns as f64);
+    let mut marks: Vec<(i32, i32)> = Vec::new();
     for (s, (name, ests)) in p.series.iter().enumerate() {
         let c = color(s);
         let off = if ns > 1 {
@@ -179,6 +180,18 @@ where
             .enumerate()
             .filter_map(|(i, e)| e.map(|e| (i as f64 + off, e)))
             .collect();
+        for (x, e) in &pts {
+            let lo = chart.backend_coord(&(*x, e.lo.clamp(y0, y1)));
+            let hi = chart.backend_coord(&(*x, e.hi.clamp(y0, y1)));
+            sample_segment(lo, hi, &mut marks);
+        }
+        if p.connect {
+            for w in pts.windows(2) {
+                let a = chart.backend_coord(&(w[0].0, w[0].1.y));
+                let b = chart.backend_coord(&(w[1].0, w[1].1.y));
+                sample_segment(a, b, &mut marks);
+            }
+        }
         chart
             .draw_series(pts.iter().map(|(x, e)| {
                 PathElement::new(
@@ -208,7 +221,9 @@ where
         }
     }
     if ns > 1 {
-        draw_legend(&mut chart)?;
+        let labels: Vec<&str> = p.series.iter().map(|(n, _)| n.as_str()).collect();
+        let corner = legend_corner(chart.plotting_area().get_pixel_range(), &labels, &marks);
+        draw_legend(&mut chart, corner)?;
     }
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
@@ -256,6 +271,7 @@ where
         .axis_desc_style((FAMILY, 15))
         .draw()
         .map_err(|e| anyhow!("{e}"))?;
+    let mut marks: Vec<(i32, i32)> = Vec::new();
     for (i, (name, pts)) in p.curves.iter().enumerate() {
         let c = color(p.colors.get(i).copied().unwrap_or(i));
         let mut line: Vec<(f64, f64)> = Vec::with_capacity(pts.len() * 2);
@@ -264,6 +280,12 @@ where
                 line.push((x, line[line.len() - 1].1));
             }
             line.push((x, y));
+        }
+        if p.legend {
+            for w in line.windows(2) {
+                let (a, b) = (chart.backend_coord(&w[0]), chart.backend_coord(&w[1]));
+                sample_segment(a, b, &mut marks);
+            }
         }
         let s = chart
             .draw_series(LineSeries::new(line, c.stroke_width(2)))
@@ -275,7 +297,14 @@ where
         }
     }
     if p.legend && !p.curves.is_empty() {
-        draw_legend(&mut chart)?;
+        let labels: Vec<&str> = p
+            .curves
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .filter(|n| !n.is_empty())
+            .collect();
+        let corner = legend_corner(chart.plotting_area().get_pixel_range(), &labels, &marks);
+        draw_legend(&mut chart, corner)?;
     }
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
@@ -298,22 +327,107 @@ macro_rules! both {
     }};
 }
 
-/// Saves a category plot as PNG and SVG.
-/// Draws the series labels in the upper right, in the reports' style.
+/// Where in the plotting area the legend goes: a corner or the middle of a side.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Corner {
+    UpperRight,
+    UpperLeft,
+    LowerRight,
+    LowerLeft,
+    MiddleRight,
+    MiddleLeft,
+    UpperMiddle,
+    LowerMiddle,
+}
+
+/// Adds points every 8 pixels or less along the segment from `a` to `b` (both ends included)
+/// to `marks`: what a legend drawn over the segment would hide.
+fn sample_segment(a: (i32, i32), b: (i32, i32), marks: &mut Vec<(i32, i32)>) {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let n = (dx.abs().max(dy.abs()) / 8).clamp(1, 1000);
+    for k in 0..=n {
+        marks.push((a.0 + dx * k / n, a.1 + dy * k / n));
+    }
+}
+
+/// The place in the plotting area (pixel ranges `area`) where a legend of `labels` covers the
+/// fewest of `marks` (pixels of the data drawn): the four corners, then the middles of the four
+/// sides, the upper right first among equals. A legend in a fixed corner hid the last
+/// category's point whenever it was high.
+fn legend_corner(
+    area: (std::ops::Range<i32>, std::ops::Range<i32>),
+    labels: &[&str],
+    marks: &[(i32, i32)],
+) -> Corner {
+    // The legend's box as plotters draws it at 13 px (a 30 px swatch, the text, margins), with a
+    // few pixels to spare.
+    let longest = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0);
+    let w = i32::try_from(longest)
+        .unwrap_or(i32::MAX / 16)
+        .saturating_mul(13)
+        / 2
+        + 50;
+    let h = i32::try_from(labels.len())
+        .unwrap_or(i32::MAX / 32)
+        .saturating_mul(18)
+        + 18;
+    let (xs, ys) = area;
+    let (xm, ym) = ((xs.start + xs.end - w) / 2, (ys.start + ys.end - h) / 2);
+    let places = [
+        (Corner::UpperRight, xs.end - w, ys.start),
+        (Corner::UpperLeft, xs.start, ys.start),
+        (Corner::LowerRight, xs.end - w, ys.end - h),
+        (Corner::LowerLeft, xs.start, ys.end - h),
+        (Corner::MiddleRight, xs.end - w, ym),
+        (Corner::MiddleLeft, xs.start, ym),
+        (Corner::UpperMiddle, xm, ys.start),
+        (Corner::LowerMiddle, xm, ys.end - h),
+    ];
+    let covered = |x: i32, y: i32| {
+        marks
+            .iter()
+            .filter(|(px, py)| {
+                (x..=x.saturating_add(w)).contains(px) && (y..=y.saturating_add(h)).contains(py)
+            })
+            .count()
+    };
+    let mut best = (usize::MAX, Corner::UpperRight);
+    for (place, x, y) in places {
+        let c = covered(x, y);
+        if c < best.0 {
+            best = (c, place);
+        }
+    }
+    best.1
+}
+
+/// Draws the series labels at `corner`, in the reports' style.
 fn draw_legend<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    corner: Corner,
 ) -> Result<()> {
+    let position = match corner {
+        Corner::UpperRight => SeriesLabelPosition::UpperRight,
+        Corner::UpperLeft => SeriesLabelPosition::UpperLeft,
+        Corner::LowerRight => SeriesLabelPosition::LowerRight,
+        Corner::LowerLeft => SeriesLabelPosition::LowerLeft,
+        Corner::MiddleRight => SeriesLabelPosition::MiddleRight,
+        Corner::MiddleLeft => SeriesLabelPosition::MiddleLeft,
+        Corner::UpperMiddle => SeriesLabelPosition::UpperMiddle,
+        Corner::LowerMiddle => SeriesLabelPosition::LowerMiddle,
+    };
     chart
         .configure_series_labels()
         .label_font((FAMILY, 13))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
+        .position(position)
         .draw()
         .map_err(|e| anyhow!("{e}"))?;
     Ok(())
 }
 
+/// Saves a category plot as PNG and SVG.
 pub fn save_category(dir: &Path, stem: &str, p: &CategoryPlot) -> Result<()> {
     let longest = p
         .categories
@@ -419,5 +533,33 @@ mod tests {
         assert!(!svg.contains("rotate(90"));
         assert_eq!(png_size("short"), (640, 480));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn the_legend_goes_to_the_corner_that_hides_the_fewest_points() {
+        let area = (0..600, 0..400);
+        let labels = ["Chen's rule alone", "occlusion with relays"];
+        // Nothing drawn: the upper right, as before.
+        assert_eq!(
+            legend_corner(area.clone(), &labels, &[]),
+            Corner::UpperRight
+        );
+        // The last category's point high on the plot: not over it.
+        let mut marks = Vec::new();
+        sample_segment((560, 10), (560, 60), &mut marks);
+        assert_eq!(
+            legend_corner(area.clone(), &labels, &marks),
+            Corner::UpperLeft
+        );
+        // Both upper corners taken: a lower one, right first.
+        sample_segment((20, 10), (20, 60), &mut marks);
+        assert_eq!(
+            legend_corner(area.clone(), &labels, &marks),
+            Corner::LowerRight
+        );
+        // A bar that crosses the box without an end inside it counts too.
+        let mut bar = Vec::new();
+        sample_segment((590, -50), (590, 450), &mut bar);
+        assert_ne!(legend_corner(area, &labels, &bar), Corner::UpperRight);
     }
 }
