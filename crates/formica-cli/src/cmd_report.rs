@@ -43,6 +43,24 @@ pub struct Args {
     pub gallery: usize,
 }
 
+impl Args {
+    /// The options given that are not their defaults, as they would be typed (each with a
+    /// leading space), so that the report says how to remake it.
+    fn options(&self) -> String {
+        let mut o = String::new();
+        if self.max_trajectories != 300 {
+            o += &format!(" --max-trajectories {}", self.max_trajectories);
+        }
+        if self.failures != 20 {
+            o += &format!(" --failures {}", self.failures);
+        }
+        if self.gallery != 3 {
+            o += &format!(" --gallery {}", self.gallery);
+        }
+        o
+    }
+}
+
 /// A short label of a parameter value.
 fn label(key: &str, v: &serde_json::Value) -> String {
     match v {
@@ -726,7 +744,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
         a.failures,
         a.gallery,
     )?);
-    md.push_str(&crate::gallery::provenance_section(&store, &a.db, &a.out)?);
+    md.push_str(&crate::gallery::provenance_section(
+        &store,
+        &a.db,
+        &a.out,
+        &a.options(),
+    )?);
     std::fs::write(dir.join("summary.md"), md).context("writing summary.md")?;
     outln!(
         "wrote {} figures (PNG and SVG) and summary.md to {}",

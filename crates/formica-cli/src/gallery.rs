@@ -40,15 +40,21 @@ fn shown_path_from(p: &str, cwd: Option<&Path>) -> String {
         .map_or_else(|| p.to_string(), |n| n.to_string_lossy().into_owned())
 }
 
-/// The `## Provenance` section of the report written to `out`.
-pub fn provenance_section(store: &Store, db: &Path, out: &Path) -> Result<String, CliError> {
+/// The `## Provenance` section of the report written to `out` with `options` (the report's
+/// options that are not their defaults, as typed).
+pub fn provenance_section(
+    store: &Store,
+    db: &Path,
+    out: &Path,
+    options: &str,
+) -> Result<String, CliError> {
     let mut md = String::from("## Provenance\n\n");
     let name = replay::store_name(db);
     let sweep = store.meta("sweep")?.map(|s| shown_path(&s));
     if let Some(s) = &sweep {
         let _ = writeln!(
             md,
-            "Made by `{program} sweep {s} --db {name}`, then `{program} report {name} --out {}`.\n",
+            "Made by `{program} sweep {s} --db {name}`, then `{program} report {name} --out {}{options}`.\n",
             shown_path(&out.display().to_string()),
             program = crate::program()
         );

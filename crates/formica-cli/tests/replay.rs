@@ -204,6 +204,7 @@ fn report_lists_failed_trials_with_replay_commands_and_a_gallery() {
     }
     // Provenance, and no path of this machine.
     assert!(md.contains("## Provenance"), "{md}");
+    assert!(md.contains("--out report`."), "{md}");
     assert!(
         md.contains(&format!(
             "results format {}",
@@ -392,6 +393,8 @@ fn resuming_a_store_of_another_results_format_is_refused_unless_allow_mixed() {
         .unwrap());
     let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
     assert!(md.contains("MIXED results formats"), "{md}");
+    // The report says how to remake it, options included.
+    assert!(md.contains("--gallery 0`."), "{md}");
 }
 
 #[test]
