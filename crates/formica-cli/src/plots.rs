@@ -129,7 +129,10 @@ where
         45
     };
     let mut chart = ChartBuilder::on(root)
-        .caption(&p.title, (FAMILY, 22))
+        .caption(
+            &p.title,
+            (FAMILY, caption_size(root.dim_in_pixel().0, &p.title)),
+        )
         .margin(15)
         .x_label_area_size(label_area)
         .y_label_area_size(65)
@@ -257,7 +260,10 @@ where
         y1 = cy + scale * f64::from(h) / 2.0;
     }
     let mut chart = ChartBuilder::on(root)
-        .caption(&p.title, (FAMILY, 22))
+        .caption(
+            &p.title,
+            (FAMILY, caption_size(root.dim_in_pixel().0, &p.title)),
+        )
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(65)
@@ -325,6 +331,15 @@ macro_rules! both {
         }
         Ok::<(), anyhow::Error>(())
     }};
+}
+
+/// Font size (pixels) of a plot's title: 22, or smaller (down to 12) so that a long title
+/// (a study's long name) fits in a picture `width` pixels wide.
+fn caption_size(width: u32, title: &str) -> u32 {
+    // DejaVu Sans averages about 0.55 em per character.
+    let chars = title.chars().count().max(1) as f64;
+    let fit = (f64::from(width.saturating_sub(30)) / (0.55 * chars)).floor();
+    fit.clamp(12.0, 22.0) as u32
 }
 
 /// Where in the plotting area the legend goes: a corner or the middle of a side.
@@ -561,5 +576,15 @@ mod tests {
         let mut bar = Vec::new();
         sample_segment((590, -50), (590, 450), &mut bar);
         assert_ne!(legend_corner(area, &labels, &bar), Corner::UpperRight);
+    }
+
+    #[test]
+    fn a_long_title_gets_a_smaller_font_that_fits() {
+        assert_eq!(caption_size(640, "unseen: success rate"), 22);
+        let long = "queiroz-macrae-obstacles-n5-15: completion time against swarm size";
+        let size = caption_size(640, long);
+        assert!(size < 22 && size >= 12, "{size}");
+        assert!(0.55 * f64::from(size) * long.chars().count() as f64 <= 610.0);
+        assert_eq!(caption_size(100, &"x".repeat(500)), 12);
     }
 }
