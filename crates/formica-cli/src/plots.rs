@@ -583,7 +583,7 @@ mod tests {
         assert_eq!(caption_size(640, "unseen: success rate"), 22);
         let long = "queiroz-macrae-obstacles-n5-15: completion time against swarm size";
         let size = caption_size(640, long);
-        assert!(size < 22 && size >= 12, "{size}");
+        assert!((12..22).contains(&size), "{size}");
         assert!(0.55 * f64::from(size) * long.chars().count() as f64 <= 610.0);
         assert_eq!(caption_size(100, &"x".repeat(500)), 12);
     }
