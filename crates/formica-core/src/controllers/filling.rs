@@ -822,12 +822,7 @@ pub fn light_bearing(r: &Readings, layout: &SensorLayout, threshold: f32) -> Opt
     if contrast <= threshold {
         return None;
     }
-    let angles = &layout.light_angles;
-    if r.light.len() <= angles.len() {
-        occlusion::light_bearing_with(&r.light, angles, contrast)
-    } else {
-        occlusion::light_bearing(&r.light, angles)
-    }
+    occlusion::light_bearing_with(&r.light, &layout.light_angles, contrast)
 }
 
 impl Controller for Filling {

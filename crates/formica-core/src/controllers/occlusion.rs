@@ -832,8 +832,8 @@ impl Occlusion {
         if self.goal_lit && self.relay.is_none() {
             let angles = &self.layout.light_angles;
             let bearing = match contrast {
-                Some(c) if r.light.len() <= angles.len() => light_bearing_with(&r.light, angles, c),
-                _ => light_bearing(&r.light, angles),
+                Some(c) => light_bearing_with(&r.light, angles, c),
+                None => light_bearing(&r.light, angles),
             };
             if let Some(b) = bearing {
                 let g = wrap_angle(b + r.pose.theta);
@@ -1131,14 +1131,19 @@ fn sort8_total(v: &mut [f32; RING8]) {
 /// about 4 degrees with 8 sensors (a plain vector sum is off by up to about 10). `None` if the
 /// ring shows no light above its background.
 pub fn light_bearing(light: &[f32], angles: &[f32]) -> Option<f32> {
-    let n = light.len().min(angles.len());
-    light_bearing_with(light, angles, light_contrast(&light[..n]))
+    light_bearing_with(light, angles, light_contrast(light))
 }
 
-/// [`light_bearing`] given the ring's [`light_contrast`] (of its first `angles.len()`
-/// readings), so that a controller that has computed it does not sort the ring again.
+/// [`light_bearing`] given the whole ring's [`light_contrast`], so that a controller that has
+/// computed it does not sort the ring again (recomputed over the first `angles.len()` readings
+/// if the ring has more).
 pub(crate) fn light_bearing_with(light: &[f32], angles: &[f32], contrast: f32) -> Option<f32> {
     let n = light.len().min(angles.len());
+    let contrast = if n < light.len() {
+        light_contrast(&light[..n])
+    } else {
+        contrast
+    };
     let (i, &ri) = light[..n]
         .iter()
         .enumerate()
