@@ -92,6 +92,11 @@ fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
             if !out.contains(&l) {
                 out.push(l);
             }
+        } else if let Some(l) = ran_controller(r, key) {
+            numeric = false;
+            if !out.contains(&l) {
+                out.push(l);
+            }
         } else {
             unset = true;
         }
@@ -112,9 +117,17 @@ fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
 }
 
 fn value(r: &StoredTrial, key: &str) -> String {
-    r.params
-        .get(key)
-        .map_or_else(|| "-".into(), |v| label(key, v))
+    match r.params.get(key) {
+        Some(v) => label(key, v),
+        None => ran_controller(r, key).unwrap_or_else(|| "-".into()),
+    }
+}
+
+/// For a controller key the trial leaves unset (its case keeps the scenario file's controller),
+/// the controller the trial ran, as its result records it.
+fn ran_controller(r: &StoredTrial, key: &str) -> Option<String> {
+    (key.ends_with(".controller") && !r.result.controller.is_empty())
+        .then(|| r.result.controller.clone())
 }
 
 /// The key to split series by when plotting against `x_key`: another varied key with 2 to 6
@@ -797,6 +810,34 @@ mod tests {
         assert_eq!(values_of(&rows, key), ["0.62", "0.83", "-"]);
         assert_eq!(value(&rows[1], key), "-");
         assert_eq!(values_of(&rows[..1], key), ["0.83"]);
+    }
+
+    #[test]
+    fn an_unset_controller_key_reads_the_controller_the_trial_ran() {
+        let trial = |params: serde_json::Value, controller: &str| {
+            let params = params.as_object().cloned().unwrap_or_default();
+            StoredTrial {
+                trial: 0,
+                provenance: Default::default(),
+                params_json: serde_json::Value::Object(params.clone()).to_string(),
+                params,
+                result: RunResult {
+                    controller: controller.into(),
+                    ..r(Outcome::Success, 1.0)
+                },
+            }
+        };
+        let key = "robots.0.controller";
+        let rows = [
+            trial(serde_json::json!({ key: "occlusion" }), "occlusion"),
+            trial(serde_json::json!({ "label": "u" }), "fill-transport"),
+            trial(serde_json::json!({ "label": "v" }), "occlusion"),
+        ];
+        assert_eq!(values_of(&rows, key), ["occlusion", "fill-transport"]);
+        assert_eq!(value(&rows[1], key), "fill-transport");
+        assert_eq!(value(&rows[2], key), "occlusion");
+        // Other keys a case leaves unset still read "-".
+        assert_eq!(value(&rows[1], "robots.0.count"), "-");
     }
 
     #[test]
