@@ -53,7 +53,10 @@
 //! not touched it yet) that loses the goal behind an obstacle: the robots all drive to the object
 //! at once, and by the time filling is over the crowd hides the object from wanderers, so
 //! relays formed later are few. A pusher that has seen a goal since the run began goes back to
-//! the object whenever it sees it (`relay.gate_memory_s`, see [`Params::pusher`]).
+//! the object whenever it sees it (`relay.gate_memory_s`, see [`Params::pusher`]). Attached
+//! robots and robots about to attach take the goal to be what the camera last showed, a relay
+//! or the real goal (results format 17; before, the light's last direction, which pinned
+//! objects against the obstacle on the corner maps).
 
 use crate::controller::{
     parse_params_with_defaults, Actuation, AttachCommand, Controller, ControllerFactory,
@@ -207,7 +210,9 @@ pub struct Params {
     /// 0.12.
     pub reach_margin: f32,
     /// Sub-goal relays for the pushers (`push.relays`, see the `relay` module); the attached
-    /// robots' blue LEDs count as the object. Default false.
+    /// robots' blue LEDs count as the object, and attached robots push toward the goal the
+    /// camera last showed (the real goal or a relay), not the light's last direction. Default
+    /// false.
     pub relays: bool,
     /// How a pusher measures the pseudo object: `"outline"` or `"farthest"` ([`Reach`]).
     /// Default `"outline"` with `relays`, `"farthest"` without. Where obstacles stand, fillers
@@ -818,6 +823,12 @@ impl FillTransport {
                 );
             if let Some(act) = self.pusher.relay_only(r, rng, free) {
                 return act;
+            }
+            // With relays the goal is what the camera shows (the real goal or a relay):
+            // attached robots push, and robots about to attach align, toward it, not toward
+            // the light's last direction, which an obstacle may stand across.
+            if let Some(g) = self.pusher.goal_direction(r) {
+                self.goal_dir = Some(g);
             }
         }
         if !self.pushing {
