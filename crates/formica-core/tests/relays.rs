@@ -350,3 +350,27 @@ fn fillers_relay_on_their_way_to_the_object() {
         );
     }
 }
+
+#[test]
+fn fill_transport_with_relays_brings_the_h_round_the_corner() {
+    // fill-transport with relays, the H on the corner map at N = 20: robots attached in the
+    // H's cavities used to push toward where they last saw the goal light, north, across the
+    // obstacle, and pinned the H against it (seeds 1 to 15 of 20 timed out, 3 and 4 among
+    // them). Pushing toward the goal their camera shows (a relay or the goal) brings it round.
+    let h = "[[-0.2, -0.2], [-0.1, -0.2], [-0.1, -0.05], [0.1, -0.05], [0.1, -0.2], \
+             [0.2, -0.2], [0.2, 0.2], [0.1, 0.2], [0.1, 0.05], [-0.1, 0.05], [-0.1, 0.2], \
+             [-0.2, 0.2]]";
+    let text = shipped_text("qm-corner.toml")
+        .replace(
+            "shape = { box = [0.4, 0.4] }",
+            &format!("shape = {{ polygon = {h} }}"),
+        )
+        .replace(
+            "controller = \"occlusion\"",
+            "controller = \"fill-transport\"",
+        );
+    let sc = Scenario::parse(&text, "qm-corner.toml").unwrap();
+    for seed in [3, 4] {
+        assert_eq!(outcome(&sc, seed), "Success", "seed {seed}");
+    }
+}
