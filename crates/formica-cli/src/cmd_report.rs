@@ -789,18 +789,24 @@ mod tests {
         }
     }
 
+    /// A stored successful trial with these parameters, run by `controller`.
+    fn stored(params: serde_json::Value, controller: &str) -> StoredTrial {
+        let params = params.as_object().cloned().unwrap_or_default();
+        StoredTrial {
+            trial: 0,
+            provenance: Default::default(),
+            params_json: serde_json::Value::Object(params.clone()).to_string(),
+            params,
+            result: RunResult {
+                controller: controller.into(),
+                ..r(Outcome::Success, 1.0)
+            },
+        }
+    }
+
     #[test]
     fn a_key_some_cases_leave_unset_keeps_their_trials_as_dash() {
-        let trial = |params: serde_json::Value| {
-            let params = params.as_object().cloned().unwrap_or_default();
-            StoredTrial {
-                trial: 0,
-                provenance: Default::default(),
-                params_json: serde_json::Value::Object(params.clone()).to_string(),
-                params,
-                result: r(Outcome::Success, 1.0),
-            }
-        };
+        let trial = |params: serde_json::Value| stored(params, "c");
         let key = "robots.0.params.object_reach";
         let rows = [
             trial(serde_json::json!({ key: 0.83 })),
@@ -814,19 +820,7 @@ mod tests {
 
     #[test]
     fn an_unset_controller_key_reads_the_controller_the_trial_ran() {
-        let trial = |params: serde_json::Value, controller: &str| {
-            let params = params.as_object().cloned().unwrap_or_default();
-            StoredTrial {
-                trial: 0,
-                provenance: Default::default(),
-                params_json: serde_json::Value::Object(params.clone()).to_string(),
-                params,
-                result: RunResult {
-                    controller: controller.into(),
-                    ..r(Outcome::Success, 1.0)
-                },
-            }
-        };
+        let trial = stored;
         let key = "robots.0.controller";
         let rows = [
             trial(serde_json::json!({ key: "occlusion" }), "occlusion"),

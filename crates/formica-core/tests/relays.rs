@@ -136,6 +136,25 @@ fn a_relay_dissolves_when_the_object_arrives() {
     );
 }
 
+/// The shipped map `file` with the study's H for its object and `count` robots running
+/// `fill-transport` (with the map's relays).
+fn fill_transport_h(file: &str, count: usize) -> Scenario {
+    let h = "[[-0.2, -0.2], [-0.1, -0.2], [-0.1, -0.05], [0.1, -0.05], [0.1, -0.2], \
+             [0.2, -0.2], [0.2, 0.2], [0.1, 0.2], [0.1, 0.05], [-0.1, 0.05], [-0.1, 0.2], \
+             [-0.2, 0.2]]";
+    let text = shipped_text(file)
+        .replace(
+            "shape = { box = [0.4, 0.4] }",
+            &format!("shape = {{ polygon = {h} }}"),
+        )
+        .replace("count = 20", &format!("count = {count}"))
+        .replace(
+            "controller = \"occlusion\"",
+            "controller = \"fill-transport\"",
+        );
+    Scenario::parse(&text, file).unwrap()
+}
+
 /// How seed `seed` of `sc` ends, run to its end ("Success", "Timeout", ...).
 fn outcome(sc: &Scenario, seed: u64) -> String {
     format!("{:?}", start(sc, seed).run_to_end())
@@ -309,20 +328,7 @@ fn fillers_relay_on_their_way_to_the_object() {
     // before any robot pushes (in seeds 3 and 6 of 1 to 6 within 4 s; in 1 and 5 none does
     // in 120 s, in 2 and 4 a robot pushes first: with Queiroz and MacRae's angle test, a
     // filler that had the goal and the object on one side does not relay).
-    let h = "[[-0.2, -0.2], [-0.1, -0.2], [-0.1, -0.05], [0.1, -0.05], [0.1, -0.2], \
-             [0.2, -0.2], [0.2, 0.2], [0.1, 0.2], [0.1, 0.05], [-0.1, 0.05], [-0.1, 0.2], \
-             [-0.2, 0.2]]";
-    let text = shipped_text("qm-middle.toml")
-        .replace(
-            "shape = { box = [0.4, 0.4] }",
-            &format!("shape = {{ polygon = {h} }}"),
-        )
-        .replace("count = 20", "count = 30")
-        .replace(
-            "controller = \"occlusion\"",
-            "controller = \"fill-transport\"",
-        );
-    let sc = Scenario::parse(&text, "qm-middle.toml").unwrap();
+    let sc = fill_transport_h("qm-middle.toml", 30);
     for seed in [3, 6] {
         let mut run = start(&sc, seed);
         let mut relayed = None;
@@ -357,19 +363,7 @@ fn fill_transport_with_relays_brings_the_h_round_the_corner() {
     // H's cavities used to push toward where they last saw the goal light, north, across the
     // obstacle, and pinned the H against it (seeds 1 to 15 of 20 timed out, 3 and 4 among
     // them). Pushing toward the goal their camera shows (a relay or the goal) brings it round.
-    let h = "[[-0.2, -0.2], [-0.1, -0.2], [-0.1, -0.05], [0.1, -0.05], [0.1, -0.2], \
-             [0.2, -0.2], [0.2, 0.2], [0.1, 0.2], [0.1, 0.05], [-0.1, 0.05], [-0.1, 0.2], \
-             [-0.2, 0.2]]";
-    let text = shipped_text("qm-corner.toml")
-        .replace(
-            "shape = { box = [0.4, 0.4] }",
-            &format!("shape = {{ polygon = {h} }}"),
-        )
-        .replace(
-            "controller = \"occlusion\"",
-            "controller = \"fill-transport\"",
-        );
-    let sc = Scenario::parse(&text, "qm-corner.toml").unwrap();
+    let sc = fill_transport_h("qm-corner.toml", 20);
     for seed in [3, 4] {
         assert_eq!(outcome(&sc, seed), "Success", "seed {seed}");
     }
