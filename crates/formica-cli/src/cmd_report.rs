@@ -86,19 +86,18 @@ fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
     let mut numeric = true;
     let mut unset = false;
     for r in rows {
-        if let Some(v) = r.params.get(key) {
+        let l = if let Some(v) = r.params.get(key) {
             numeric &= v.is_number();
-            let l = label(key, v);
-            if !out.contains(&l) {
-                out.push(l);
-            }
+            label(key, v)
         } else if let Some(l) = ran_controller(r, key) {
             numeric = false;
-            if !out.contains(&l) {
-                out.push(l);
-            }
+            l
         } else {
             unset = true;
+            continue;
+        };
+        if !out.contains(&l) {
+            out.push(l);
         }
     }
     if numeric {
@@ -820,12 +819,11 @@ mod tests {
 
     #[test]
     fn an_unset_controller_key_reads_the_controller_the_trial_ran() {
-        let trial = stored;
         let key = "robots.0.controller";
         let rows = [
-            trial(serde_json::json!({ key: "occlusion" }), "occlusion"),
-            trial(serde_json::json!({ "label": "u" }), "fill-transport"),
-            trial(serde_json::json!({ "label": "v" }), "occlusion"),
+            stored(serde_json::json!({ key: "occlusion" }), "occlusion"),
+            stored(serde_json::json!({ "label": "u" }), "fill-transport"),
+            stored(serde_json::json!({ "label": "v" }), "occlusion"),
         ];
         assert_eq!(values_of(&rows, key), ["occlusion", "fill-transport"]);
         assert_eq!(value(&rows[1], key), "fill-transport");

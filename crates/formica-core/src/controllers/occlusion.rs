@@ -1131,6 +1131,7 @@ fn sort8_total(v: &mut [f32; RING8]) {
 /// about 4 degrees with 8 sensors (a plain vector sum is off by up to about 10). `None` if the
 /// ring shows no light above its background.
 pub fn light_bearing(light: &[f32], angles: &[f32]) -> Option<f32> {
+    let light = &light[..light.len().min(angles.len())];
     light_bearing_with(light, angles, light_contrast(light))
 }
 
