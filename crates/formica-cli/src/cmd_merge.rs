@@ -1,9 +1,19 @@
 //! `formica merge OUT.db IN1.db IN2.db ...`: merge shard result stores into one.
+//!
+//! With `--sweep FILE`, the inputs may be stores of other sweep files (slices of FILE's grid,
+//! say, that fix one of its varied keys in `[set]`): a stored trial is taken in under FILE's
+//! parameter set when it ran the same scenario (its `scenario_sha256`, the canonical scenario
+//! after every override) with one of FILE's seeds, which makes it the trial FILE would run.
 
-use crate::store::{columns_of, ident, Store};
+use crate::provenance::{sha256_hex, Provenance, Writer};
+use crate::store::{columns_of, ident, sql_of, Store};
+use crate::sweep::Sweep;
 use crate::CliError;
 use anyhow::Context;
-use std::path::PathBuf;
+use formica::Overrides;
+use rusqlite::types::Value as SqlValue;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `formica merge`.
 #[derive(clap::Args)]
@@ -17,6 +27,11 @@ pub struct Args {
     /// format), as `formica sweep --allow-mixed` would.
     #[arg(long)]
     pub allow_mixed: bool,
+    /// Sweep file whose store OUT is: take in every trial of the inputs that ran one of its
+    /// parameter sets' scenarios with one of its seeds (the inputs may come from other sweep
+    /// files, e.g. slices of this one), under its parameter sets; skip the rest.
+    #[arg(long, value_name = "SWEEP.toml")]
+    pub sweep: Option<PathBuf>,
 }
 
 /// Runs the command.
@@ -34,6 +49,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 p.display()
             )));
         }
+    }
+    if let Some(file) = &a.sweep {
+        return into_sweep(&a, file);
     }
     let store = Store::open(&a.out)?;
     // Check every input before changing anything: all must hold the same sweep.
@@ -55,31 +73,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             _ => {}
         }
     }
-    // Results formats: stores whose results can differ are not mixed unless asked.
-    let mut formats: Vec<(String, Option<String>)> = Vec::new();
-    if store.count()? > 0 {
-        formats.push((a.out.display().to_string(), store.meta("results_format")?));
-    }
-    let mut writers = store.writers()?;
-    for p in &a.inputs {
-        let src = Store::open_existing(p)?;
-        formats.push((p.display().to_string(), src.meta("results_format")?));
-        for w in src.writers()? {
-            if !writers.contains(&w) {
-                writers.push(w);
-            }
-        }
-    }
-    if !a.allow_mixed && formats.iter().any(|(_, f)| *f != formats[0].1) {
-        let list: Vec<String> = formats
-            .iter()
-            .map(|(p, f)| format!("{p}: {}", f.as_deref().unwrap_or("none recorded")))
-            .collect();
-        return Err(CliError::Input(format!(
-            "these stores hold results of different results formats ({}), whose results can differ; nothing merged (--allow-mixed merges them anyway)",
-            list.join(", ")
-        )));
-    }
+    let writers = writers_of(&store, &a)?;
     let before = store.count()?;
     for p in &a.inputs {
         let src = Store::open_existing(p)?;
@@ -145,6 +139,199 @@ pub fn main(a: Args) -> Result<(), CliError> {
     outln!(
         "{}: {after} trials ({} new from {} store(s))",
         a.out.display(),
+        after - before,
+        a.inputs.len()
+    );
+    Ok(())
+}
+
+/// Every build that wrote into OUT or an input; refuses (unless `--allow-mixed`) stores of
+/// different results formats, whose results can differ.
+fn writers_of(store: &Store, a: &Args) -> Result<Vec<Writer>, CliError> {
+    let mut formats: Vec<(String, Option<String>)> = Vec::new();
+    if store.count()? > 0 {
+        formats.push((a.out.display().to_string(), store.meta("results_format")?));
+    }
+    let mut writers = store.writers()?;
+    for p in &a.inputs {
+        let src = Store::open_existing(p)?;
+        formats.push((p.display().to_string(), src.meta("results_format")?));
+        for w in src.writers()? {
+            if !writers.contains(&w) {
+                writers.push(w);
+            }
+        }
+    }
+    if !a.allow_mixed && formats.iter().any(|(_, f)| *f != formats[0].1) {
+        let list: Vec<String> = formats
+            .iter()
+            .map(|(p, f)| format!("{p}: {}", f.as_deref().unwrap_or("none recorded")))
+            .collect();
+        return Err(CliError::Input(format!(
+            "these stores hold results of different results formats ({}), whose results can differ; nothing merged (--allow-mixed merges them anyway)",
+            list.join(", ")
+        )));
+    }
+    Ok(writers)
+}
+
+/// `formica merge --sweep FILE`: takes in the inputs' trials that are trials of FILE's grid.
+fn into_sweep(a: &Args, file: &Path) -> Result<(), CliError> {
+    let sweep = Sweep::load(file)?;
+    let shas: Vec<String> = sweep
+        .sets
+        .iter()
+        .map(|s| Provenance::of(&s.scenario, &Overrides::default()).scenario_sha256)
+        .collect();
+    let mut sets_of: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (i, sha) in shas.iter().enumerate() {
+        sets_of.entry(sha.as_str()).or_default().push(i);
+    }
+    let seed_pos: HashMap<u64, usize> = sweep
+        .seeds
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| (s, i))
+        .collect();
+    let mut store = Store::open(&a.out)?;
+    let writers = writers_of(&store, a)?;
+    store.adopt(&sweep, &a.out, &sha256_hex(shas.join("\n").as_bytes()))?;
+    for (set, sha) in sweep.sets.iter().zip(&shas) {
+        store.add_scenario(sha, &set.scenario.file, set.scenario.text())?;
+    }
+    let before = store.count()?;
+    let mut skipped = 0usize;
+    for p in &a.inputs {
+        let src = Store::open_existing(p)?;
+        let src_keys = src.keys()?;
+        let meta: Vec<(String, Option<String>)> = [
+            "results_format",
+            "formica_version",
+            "git_commit",
+            "platform",
+        ]
+        .iter()
+        .map(|k| Ok((k.to_string(), src.meta(k)?)))
+        .collect::<Result<_, CliError>>()?;
+        let mut rows: Vec<(String, u64, Option<String>)> = Vec::new();
+        {
+            let mut st = src
+                .conn
+                .prepare("SELECT params, seed, scenario_sha256 FROM trials")
+                .context("reading trials")?;
+            let it = st
+                .query_map([], |r| {
+                    Ok((r.get(0)?, r.get::<_, i64>(1)? as u64, r.get(2)?))
+                })
+                .context("reading trials")?;
+            for r in it {
+                rows.push(r.context("reading trials")?);
+            }
+        }
+        drop(src);
+        // The first writer's provenance becomes the store's, as a sweep's would.
+        for (k, v) in meta {
+            if let (None, Some(v)) = (store.meta(&k)?, v) {
+                store.set_meta(&k, &v)?;
+            }
+        }
+        store
+            .conn
+            .execute("ATTACH DATABASE ?1 AS src", [p.display().to_string()])
+            .with_context(|| format!("opening {}", p.display()))?;
+        let result = (|| -> Result<usize, CliError> {
+            // Columns copied as they are: results, provenance and end-of-run fields (not the
+            // input's own parameters, which FILE's parameter set replaces).
+            let copied: Vec<String> = columns_of(&store.conn, "src")?
+                .into_iter()
+                .filter(|c| !["trial", "params", "seed"].contains(&c.as_str()))
+                .filter(|c| !src_keys.contains(c) && !sweep.keys.contains(c))
+                .collect();
+            store.ensure_columns(&copied)?;
+            let mut cols: Vec<String> = ["trial", "params", "seed"]
+                .iter()
+                .map(|c| ident(c))
+                .collect();
+            cols.extend(sweep.keys.iter().map(|k| ident(k)));
+            let marks: Vec<String> = (1..=cols.len()).map(|i| format!("?{i}")).collect();
+            let n = cols.len();
+            let copied_sql: Vec<String> = copied.iter().map(|c| ident(c)).collect();
+            let trials_sql = format!(
+                "INSERT OR IGNORE INTO main.trials ({}, {}) SELECT {}, {} FROM src.trials WHERE params = ?{} AND seed = ?3",
+                cols.join(", "),
+                copied_sql.join(", "),
+                marks.join(", "),
+                copied_sql.join(", "),
+                n + 1
+            );
+            let tx = store.conn.transaction().context("starting a transaction")?;
+            let mut skipped = 0usize;
+            {
+                let mut ins = tx.prepare(&trials_sql).context("merging trials")?;
+                let mut side = Vec::new();
+                for table in ["trajectories", "timeseries"] {
+                    let col = if table == "trajectories" {
+                        "samples"
+                    } else {
+                        "series"
+                    };
+                    side.push(
+                        tx.prepare(&format!(
+                            "INSERT OR IGNORE INTO main.{table} (params, seed, {col}) SELECT ?1, seed, {col} FROM src.{table} WHERE params = ?2 AND seed = ?3"
+                        ))
+                        .with_context(|| format!("merging {table}"))?,
+                    );
+                }
+                for (params, seed, sha) in &rows {
+                    let sets = sha.as_deref().and_then(|s| sets_of.get(s));
+                    let (Some(sets), Some(&pos)) = (sets, seed_pos.get(seed)) else {
+                        skipped += 1;
+                        continue;
+                    };
+                    for &i in sets {
+                        let set = &sweep.sets[i];
+                        let mut vals: Vec<SqlValue> = vec![
+                            SqlValue::Integer((i * sweep.seeds.len() + pos) as i64),
+                            SqlValue::Text(set.key.clone()),
+                            SqlValue::Integer(*seed as i64),
+                        ];
+                        vals.extend(
+                            sweep
+                                .keys
+                                .iter()
+                                .map(|k| set.params.get(k).map_or(SqlValue::Null, sql_of)),
+                        );
+                        vals.push(SqlValue::Text(params.clone()));
+                        ins.execute(rusqlite::params_from_iter(vals.iter()))
+                            .context("merging trials")?;
+                        for st in &mut side {
+                            st.execute(rusqlite::params![set.key, params, *seed as i64])
+                                .context("merging trajectories")?;
+                        }
+                    }
+                }
+            }
+            tx.commit().context("merging trials")?;
+            Ok(skipped)
+        })();
+        store
+            .conn
+            .execute("DETACH DATABASE src", [])
+            .context("closing an input")?;
+        skipped += result?;
+    }
+    if !writers.is_empty() {
+        store.set_meta(
+            "writers",
+            &serde_json::to_string(&writers).context("encoding writers")?,
+        )?;
+    }
+    let after = store.count()?;
+    outln!(
+        "{}: {after} of the {} trials of {} ({} new from {} store(s); {skipped} stored trial(s) are not trials of it and were left out)",
+        a.out.display(),
+        sweep.sets.len() * sweep.seeds.len(),
+        file.display(),
         after - before,
         a.inputs.len()
     );

@@ -99,7 +99,9 @@ pub struct Row {
     pub provenance: Provenance,
 }
 
-fn sql_of(v: &toml::Value) -> SqlValue {
+/// A varied key's value as SQL: numbers as INTEGER or REAL, booleans as 0 / 1, lists and tables
+/// as canonical JSON text.
+pub fn sql_of(v: &toml::Value) -> SqlValue {
     match v {
         toml::Value::Integer(i) => SqlValue::Integer(*i),
         toml::Value::Float(f) => SqlValue::Real(*f),
@@ -281,6 +283,43 @@ impl Store {
             Some(k) => serde_json::from_str(&k).unwrap_or_default(),
             None => Vec::new(),
         };
+        for k in &sweep.keys {
+            if !keys.contains(k) {
+                keys.push(k.clone());
+            }
+        }
+        self.set_meta(
+            "keys",
+            &serde_json::to_string(&keys).context("encoding keys")?,
+        )?;
+        self.ensure_columns(&sweep.keys)
+    }
+
+    /// Records that this store holds trials of `sweep` without running any (as `formica merge
+    /// --sweep` fills it), or refuses a store of a different sweep.
+    pub fn adopt(
+        &self,
+        sweep: &Sweep,
+        path: &Path,
+        scenarios_sha256: &str,
+    ) -> Result<(), CliError> {
+        match self.meta("digest")? {
+            Some(d) if d != sweep.digest => {
+                return Err(CliError::Input(format!(
+                    "{}: this store holds a different sweep (its base scenario, [set] or duration_s differ from {}); use another store",
+                    path.display(),
+                    sweep.file.display()
+                )))
+            }
+            Some(_) => {}
+            None => {
+                self.set_meta("digest", &sweep.digest)?;
+                self.set_meta("name", &sweep.name)?;
+                self.set_meta("sweep", &sweep.file.display().to_string())?;
+                self.set_meta("scenario_sha256", scenarios_sha256)?;
+            }
+        }
+        let mut keys = self.keys()?;
         for k in &sweep.keys {
             if !keys.contains(k) {
                 keys.push(k.clone());

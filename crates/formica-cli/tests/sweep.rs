@@ -207,6 +207,98 @@ fn thread_count_and_shards_do_not_change_results() {
     assert!(md.contains("| occlusion | 6 | 4 |"), "{md}");
 }
 
+/// A sweep file like [`write_sweep`]'s, with `fixed` added to `[set]` and the listed `vary` lines.
+fn write_slice(dir: &Path, name: &str, seeds: &str, fixed: &str, vary: &str) -> PathBuf {
+    let base = repo("scenarios/seed-transport.toml");
+    let text = format!(
+        r#"name = "{name}"
+scenario = "{}"
+seeds = "{seeds}"
+duration_s = 60
+
+[set]
+"objects.0.mass" = 5.0
+"objects.0.floor_mu" = 0.05
+{fixed}
+
+[vary]
+"robots.0.controller" = ["occlusion", "random-walk"]
+{vary}
+"#,
+        base.display().to_string().replace('\\', "/")
+    );
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn slices_of_a_design_merge_into_the_designs_store() {
+    let dir = tmp("slices");
+    // The design varies the swarm size; each slice fixes it in [set], on fewer seeds or more.
+    let design = write_slice(&dir, "design", "1..3", "", r#""robots.0.count" = [6, 12]"#);
+    let six = write_slice(&dir, "six", "1..2", r#""robots.0.count" = 6"#, "");
+    let twelve = write_slice(&dir, "twelve", "1..4", r#""robots.0.count" = 12"#, "");
+    // Not a trial of the design: another duration.
+    let other = write_slice(&dir, "other", "3..3", r#""robots.0.count" = 6"#, "")
+        .to_string_lossy()
+        .to_string();
+    let other_text = std::fs::read_to_string(&other).unwrap();
+    std::fs::write(
+        &other,
+        other_text.replace("duration_s = 60", "duration_s = 50"),
+    )
+    .unwrap();
+
+    let direct = dir.join("direct.db");
+    ok(sweep(&design, &direct, &["--trajectories"]));
+    let mut inputs = Vec::new();
+    for f in [&six, &twelve, &PathBuf::from(&other)] {
+        let db = f.with_extension("db");
+        ok(sweep(f, &db, &["--trajectories"]));
+        inputs.push(db);
+    }
+    let merged = dir.join("merged.db");
+    // Stores of other sweeps are refused without --sweep.
+    let out = formica()
+        .arg("merge")
+        .arg(&merged)
+        .args(&inputs)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let out = ok(formica()
+        .arg("merge")
+        .arg(&merged)
+        .args(&inputs)
+        .arg("--sweep")
+        .arg(&design)
+        .output()
+        .unwrap());
+    let text = String::from_utf8_lossy(&out.stdout);
+    // six: 2 x 2 taken; twelve: 2 x 3 of its 2 x 4 (seed 4 is not the design's); other: none.
+    assert!(
+        text.contains("10 of the 12 trials")
+            && text.contains("4 stored trial(s) are not trials of it"),
+        "{text}"
+    );
+    // The design's missing trials (seed 3 at N = 6) run; the rest are taken as stored.
+    let out = ok(sweep(&design, &merged, &["--trajectories"]));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("ran 2 trials"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert_eq!(rows(&merged), rows(&direct));
+    let traj = |db: &Path| -> i64 {
+        rusqlite::Connection::open(db)
+            .unwrap()
+            .query_row("SELECT COUNT(*) FROM trajectories", [], |r| r.get(0))
+            .unwrap()
+    };
+    assert_eq!(traj(&merged), traj(&direct));
+}
+
 #[test]
 fn bad_sweep_files_exit_with_code_2_naming_file_and_key() {
     let dir = tmp("bad");
