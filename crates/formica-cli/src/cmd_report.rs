@@ -20,7 +20,7 @@ use crate::store::{Store, StoredTrial};
 use crate::CliError;
 use anyhow::Context;
 use formica::{Outcome, RunResult};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -253,6 +253,20 @@ fn extra_values<'a>(rs: impl Iterator<Item = &'a RunResult>, field: &str) -> Vec
         .collect()
 }
 
+/// The trials of each parameter set, in the order the sets first appear.
+pub fn by_set(rows: &[StoredTrial]) -> Vec<(&str, Vec<&StoredTrial>)> {
+    let mut at: HashMap<&str, usize> = HashMap::new();
+    let mut out: Vec<(&str, Vec<&StoredTrial>)> = Vec::new();
+    for r in rows {
+        let i = *at.entry(r.params_json.as_str()).or_insert_with(|| {
+            out.push((r.params_json.as_str(), Vec::new()));
+            out.len() - 1
+        });
+        out[i].1.push(r);
+    }
+    out
+}
+
 /// Groups rows by (x value, series value).
 fn grouped(
     rows: &[StoredTrial],
@@ -361,13 +375,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
     };
     // With case labels, keys that the label decides get no figures of their own.
     let decided_by_label = |k: &str| {
-        k != "label"
-            && keys.iter().any(|l| l == "label")
-            && rows.iter().all(|a| {
-                rows.iter()
-                    .filter(|b| value(b, "label") == value(a, "label"))
-                    .all(|b| value(b, k) == value(a, k))
-            })
+        if k == "label" || !keys.iter().any(|l| l == "label") {
+            return false;
+        }
+        let mut seen: HashMap<String, String> = HashMap::new();
+        rows.iter().all(|r| {
+            let v = value(r, k);
+            seen.entry(value(r, "label")).or_insert_with(|| v.clone()) == &v
+        })
     };
     let plotted: Vec<String> = keys
         .iter()
@@ -467,15 +482,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
 
     // Survival curves: per parameter set if few, else per value of the series key.
-    let sets: Vec<String> = {
-        let mut v: Vec<String> = Vec::new();
-        for r in &rows {
-            if !v.contains(&r.params_json) {
-                v.push(r.params_json.clone());
-            }
-        }
-        v
-    };
+    let by_set = by_set(&rows);
+    let sets: Vec<String> = by_set.iter().map(|(s, _)| s.to_string()).collect();
     let set_label = |r: &StoredTrial| {
         if keys.is_empty() {
             "all trials".to_string()
@@ -489,8 +497,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     };
     let (groups, by): (Vec<(String, Vec<&RunResult>)>, String) = if sets.len() <= 8 {
         let mut g: Vec<(String, Vec<&RunResult>)> = Vec::new();
-        for s in &sets {
-            let rs: Vec<&StoredTrial> = rows.iter().filter(|r| &r.params_json == s).collect();
+        for (_, rs) in &by_set {
             g.push((set_label(rs[0]), rs.iter().map(|r| &r.result).collect()));
         }
         (g, "parameter set".into())
@@ -680,8 +687,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     head.extend(extras.iter().map(|f| format!("`{f}` (mean)")));
     let _ = writeln!(md, "| {} |", head.join(" | "));
     let _ = writeln!(md, "|{}", "---|".repeat(head.len()));
-    for s in &sets {
-        let rs: Vec<&StoredTrial> = rows.iter().filter(|r| &r.params_json == s).collect();
+    for (_, rs) in &by_set {
         let res: Vec<RunResult> = rs.iter().map(|r| r.result.clone()).collect();
         let refs: Vec<&RunResult> = res.iter().collect();
         let count = |o: Outcome| res.iter().filter(|r| r.outcome == o).count();
@@ -830,6 +836,24 @@ mod tests {
         assert_eq!(value(&rows[2], key), "occlusion");
         // Other keys a case leaves unset still read "-".
         assert_eq!(value(&rows[1], "robots.0.count"), "-");
+    }
+
+    #[test]
+    fn trials_group_by_parameter_set_in_first_seen_order() {
+        let rows = [
+            stored(serde_json::json!({ "n": 2 }), "c"),
+            stored(serde_json::json!({ "n": 1 }), "c"),
+            stored(serde_json::json!({ "n": 2 }), "c"),
+            stored(serde_json::json!({ "n": 3 }), "c"),
+            stored(serde_json::json!({ "n": 1 }), "c"),
+        ];
+        let g = by_set(&rows);
+        let sets: Vec<(&str, usize)> = g.iter().map(|(s, rs)| (*s, rs.len())).collect();
+        assert_eq!(
+            sets,
+            [(r#"{"n":2}"#, 2), (r#"{"n":1}"#, 2), (r#"{"n":3}"#, 1)]
+        );
+        assert!(std::ptr::eq(g[1].1[1], &rows[4]));
     }
 
     #[test]

@@ -12,6 +12,7 @@ use formica::experiment::{Run, RunOptions};
 use formica::geometry::Vec2;
 use formica::Outcome;
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -157,16 +158,16 @@ pub fn failures_section(
         md.push_str("Every trial succeeded.\n\n");
         return Ok(md);
     }
+    let mut failed_in: HashMap<&str, Vec<&StoredTrial>> = HashMap::new();
+    for r in &failed {
+        failed_in.entry(r.params_json.as_str()).or_default().push(r);
+    }
+    let none: Vec<&StoredTrial> = Vec::new();
+    let failed_of = |s: &String| failed_in.get(s.as_str()).unwrap_or(&none);
     // Which trials get a picture.
     let mut wanted: Vec<&StoredTrial> = Vec::new();
     for s in sets {
-        wanted.extend(
-            failed
-                .iter()
-                .filter(|r| &r.params_json == s)
-                .take(gallery)
-                .copied(),
-        );
+        wanted.extend(failed_of(s).iter().take(gallery).copied());
     }
     let pictures = if wanted.is_empty() {
         Vec::new()
@@ -185,9 +186,8 @@ pub fn failures_section(
         }
     );
     for s in sets {
-        let mine: Vec<Failed> = failed
+        let mine: Vec<Failed> = failed_of(s)
             .iter()
-            .filter(|r| &r.params_json == s)
             .map(|r| Failed {
                 row: r,
                 picture: pictures
