@@ -502,7 +502,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
         }
         (g, "parameter set".into())
     } else {
-        let k = series_key(&rows, &keys, None).or_else(|| keys.first().cloned());
+        // Keys the case label decides give way to the label (a controller run by two cases
+        // would merge them), unless nothing else splits the trials into 2 to 6 groups.
+        let k = series_key(&rows, &plotted, None)
+            .or_else(|| series_key(&rows, &keys, None))
+            .or_else(|| keys.first().cloned());
         match k {
             Some(k) => {
                 let vals = values_of(&rows, &k);
@@ -556,12 +560,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
     sizes.dedup();
     if sizes.len() > 1 && any_success {
         let count_key = keys.iter().find(|k| k.ends_with("count")).cloned();
-        let others: Vec<String> = keys
-            .iter()
-            .filter(|k| Some(*k) != count_key.as_ref())
-            .cloned()
-            .collect();
-        let s_key = series_key(&rows, &others, None);
+        let but_count = |ks: &[String]| -> Vec<String> {
+            ks.iter()
+                .filter(|k| Some(*k) != count_key.as_ref())
+                .cloned()
+                .collect()
+        };
+        let s_key = series_key(&rows, &but_count(&plotted), None)
+            .or_else(|| series_key(&rows, &but_count(&keys), None));
         let cats: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
         let p = category_plot(
             &rows,
