@@ -389,6 +389,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .filter(|k| !decided_by_label(k))
         .cloned()
         .collect();
+    // Curves split by controller split by case instead when the case label decides the
+    // controller and has few values: two cases that run one controller stay apart.
+    let label_for_controller = keys
+        .iter()
+        .any(|k| k.ends_with(".controller") && decided_by_label(k))
+        && (2..=6).contains(&values_of(&rows, "label").len());
     let x_keys: Vec<Option<String>> = if plotted.is_empty() {
         vec![None]
     } else {
@@ -502,11 +508,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
         }
         (g, "parameter set".into())
     } else {
-        // Keys the case label decides give way to the label (a controller run by two cases
-        // would merge them), unless nothing else splits the trials into 2 to 6 groups.
-        let k = series_key(&rows, &plotted, None)
-            .or_else(|| series_key(&rows, &keys, None))
-            .or_else(|| keys.first().cloned());
+        let k = if label_for_controller {
+            Some("label".to_string())
+        } else {
+            series_key(&rows, &keys, None).or_else(|| keys.first().cloned())
+        };
         match k {
             Some(k) => {
                 let vals = values_of(&rows, &k);
@@ -560,14 +566,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
     sizes.dedup();
     if sizes.len() > 1 && any_success {
         let count_key = keys.iter().find(|k| k.ends_with("count")).cloned();
-        let but_count = |ks: &[String]| -> Vec<String> {
-            ks.iter()
-                .filter(|k| Some(*k) != count_key.as_ref())
-                .cloned()
-                .collect()
+        let others: Vec<String> = keys
+            .iter()
+            .filter(|k| Some(*k) != count_key.as_ref())
+            .cloned()
+            .collect();
+        let s_key = if label_for_controller {
+            Some("label".to_string())
+        } else {
+            series_key(&rows, &others, None)
         };
-        let s_key = series_key(&rows, &but_count(&plotted), None)
-            .or_else(|| series_key(&rows, &but_count(&keys), None));
         let cats: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
         let p = category_plot(
             &rows,

@@ -300,6 +300,62 @@ fn slices_of_a_design_merge_into_the_designs_store() {
 }
 
 #[test]
+fn report_splits_curves_by_case_when_two_cases_run_one_controller() {
+    let dir = tmp("cases");
+    let base = repo("scenarios/seed-transport.toml");
+    // Three cases, two of them `occlusion`, over 2 x 2 other values: 12 parameter sets, too many
+    // for a curve each, and swarm sizes for the time against swarm size.
+    let text = format!(
+        r#"name = "cases"
+scenario = "{}"
+seeds = "1..1"
+duration_s = 30
+
+[set]
+"objects.0.mass" = 5.0
+
+[[cases]]
+label = "chen"
+"robots.0.controller" = "occlusion"
+"robots.0.params" = {{ spread_s = 0.0 }}
+
+[[cases]]
+label = "spread"
+"robots.0.controller" = "occlusion"
+
+[[cases]]
+label = "walk"
+"robots.0.controller" = "random-walk"
+
+[vary]
+"robots.0.count" = [6, 12]
+"objects.0.floor_mu" = [0.01, 0.05]
+"#,
+        base.display().to_string().replace('\\', "/")
+    );
+    let file = dir.join("cases.toml");
+    std::fs::write(&file, text).unwrap();
+    let db = dir.join("cases.db");
+    ok(sweep(&file, &db, &[]));
+    let out_dir = dir.join("report");
+    ok(formica()
+        .arg("report")
+        .arg(&db)
+        .arg("--out")
+        .arg(&out_dir)
+        .args(["--gallery", "0"])
+        .output()
+        .unwrap());
+    let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+    // By controller, "chen" and "spread" would be one curve.
+    assert!(md.contains("survival curves, by label"), "{md}");
+    let svg = std::fs::read_to_string(out_dir.join("survival.svg")).unwrap();
+    for case in ["label = chen", "label = spread", "label = walk"] {
+        assert!(svg.contains(case), "{case} not in the survival legend");
+    }
+}
+
+#[test]
 fn bad_sweep_files_exit_with_code_2_naming_file_and_key() {
     let dir = tmp("bad");
     let file = write_sweep(&dir, "1..2");
