@@ -600,6 +600,51 @@ pub fn main(a: Args) -> Result<(), CliError> {
             "time-vs-robots".into(),
             "Completion time against swarm size (failures censored)".into(),
         ));
+        // Survival curves by swarm size: one figure per value of the series key (at most 6).
+        let parts: Vec<(String, Vec<&StoredTrial>)> = match &s_key {
+            Some(k) => values_of(&rows, k)
+                .into_iter()
+                .map(|v| {
+                    let rs = rows.iter().filter(|r| value(r, k) == v).collect();
+                    (v, rs)
+                })
+                .collect(),
+            None => vec![(String::new(), rows.iter().collect())],
+        };
+        for (v, rs) in parts.iter().take(6) {
+            let curves: Vec<(String, Vec<(f64, f64)>)> = sizes
+                .iter()
+                .filter_map(|n| {
+                    let g: Vec<&RunResult> = rs
+                        .iter()
+                        .filter(|r| r.result.robots == *n)
+                        .map(|r| &r.result)
+                        .collect();
+                    (!g.is_empty()).then(|| (format!("N = {n}"), kaplan_meier(&g)))
+                })
+                .collect();
+            let (stem, of) = if v.is_empty() {
+                ("survival-robots".to_string(), String::new())
+            } else {
+                (format!("survival-robots-{}", slug(v)), format!(", {v}"))
+            };
+            let p = LinePlot {
+                title: format!("{name}: completion time by swarm size{of}"),
+                x_desc: "simulated time (s)".into(),
+                y_desc: "fraction not yet at the goal".into(),
+                curves,
+                steps: true,
+                y_range: Some((0.0, 1.02)),
+                equal_axes: false,
+                legend: true,
+                colors: Vec::new(),
+            };
+            plots::save_lines(dir, &stem, &p)?;
+            figures.push((
+                stem,
+                format!("Completion-time survival curves by swarm size{of}"),
+            ));
+        }
     }
 
     // Trajectories.

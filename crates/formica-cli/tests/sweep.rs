@@ -192,6 +192,8 @@ fn thread_count_and_shards_do_not_change_results() {
         "success-robots-0-controller",
         "path-efficiency-robots-0-count",
         "survival",
+        "survival-robots-occlusion",
+        "survival-robots-random-walk",
         "trajectories",
     ] {
         for ext in ["png", "svg"] {
