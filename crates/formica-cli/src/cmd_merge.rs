@@ -53,7 +53,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if let Some(file) = &a.sweep {
         return into_sweep(&a, file);
     }
-    let store = Store::open(&a.out)?;
+    let mut store = Store::open(&a.out)?;
     // Check every input before changing anything: all must hold the same sweep.
     let mut digest = store.meta("digest")?;
     let mut first = a.out.display().to_string();
@@ -79,11 +79,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let src = Store::open_existing(p)?;
         let mut keys = src.keys()?;
         drop(src);
-        store
-            .conn
-            .execute("ATTACH DATABASE ?1 AS src", [p.display().to_string()])
-            .with_context(|| format!("opening {}", p.display()))?;
-        let result = (|| -> Result<(), CliError> {
+        attached(&mut store, p, |store| {
             if store.meta("digest")?.is_none() {
                 store
                     .conn
@@ -122,18 +118,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 ))
                 .with_context(|| format!("merging {}", p.display()))?;
             Ok(())
-        })();
-        store
-            .conn
-            .execute("DETACH DATABASE src", [])
-            .context("closing an input")?;
-        result?;
+        })?;
     }
     if !writers.is_empty() {
-        store.set_meta(
-            "writers",
-            &serde_json::to_string(&writers).context("encoding writers")?,
-        )?;
+        store.set_writers(&writers)?;
     }
     let after = store.count()?;
     outln!(
@@ -143,6 +131,25 @@ pub fn main(a: Args) -> Result<(), CliError> {
         a.inputs.len()
     );
     Ok(())
+}
+
+/// Runs `f` with the store at `p` attached to `store` as schema `src`, and detaches it whatever
+/// `f` returns.
+fn attached<T>(
+    store: &mut Store,
+    p: &Path,
+    f: impl FnOnce(&mut Store) -> Result<T, CliError>,
+) -> Result<T, CliError> {
+    store
+        .conn
+        .execute("ATTACH DATABASE ?1 AS src", [p.display().to_string()])
+        .with_context(|| format!("opening {}", p.display()))?;
+    let result = f(store);
+    store
+        .conn
+        .execute("DETACH DATABASE src", [])
+        .context("closing an input")?;
+    result
 }
 
 /// Every build that wrote into OUT or an input; refuses (unless `--allow-mixed`) stores of
@@ -195,7 +202,10 @@ fn into_sweep(a: &Args, file: &Path) -> Result<(), CliError> {
         .collect();
     let mut store = Store::open(&a.out)?;
     let writers = writers_of(&store, a)?;
-    store.adopt(&sweep, &a.out, &sha256_hex(shas.join("\n").as_bytes()))?;
+    store.adopt(&sweep, &a.out, "store")?;
+    if store.meta("scenario_sha256")?.is_none() {
+        store.set_meta("scenario_sha256", &sha256_hex(shas.join("\n").as_bytes()))?;
+    }
     for (set, sha) in sweep.sets.iter().zip(&shas) {
         store.add_scenario(sha, &set.scenario.file, set.scenario.text())?;
     }
@@ -235,11 +245,7 @@ fn into_sweep(a: &Args, file: &Path) -> Result<(), CliError> {
                 store.set_meta(&k, &v)?;
             }
         }
-        store
-            .conn
-            .execute("ATTACH DATABASE ?1 AS src", [p.display().to_string()])
-            .with_context(|| format!("opening {}", p.display()))?;
-        let result = (|| -> Result<usize, CliError> {
+        skipped += attached(&mut store, p, |store| {
             // Columns copied as they are: results, provenance and end-of-run fields (not the
             // input's own parameters, which FILE's parameter set replaces).
             let copied: Vec<String> = columns_of(&store.conn, "src")?
@@ -313,18 +319,10 @@ fn into_sweep(a: &Args, file: &Path) -> Result<(), CliError> {
             }
             tx.commit().context("merging trials")?;
             Ok(skipped)
-        })();
-        store
-            .conn
-            .execute("DETACH DATABASE src", [])
-            .context("closing an input")?;
-        skipped += result?;
+        })?;
     }
     if !writers.is_empty() {
-        store.set_meta(
-            "writers",
-            &serde_json::to_string(&writers).context("encoding writers")?,
-        )?;
+        store.set_writers(&writers)?;
     }
     let after = store.count()?;
     outln!(

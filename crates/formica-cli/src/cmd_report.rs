@@ -395,6 +395,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .iter()
         .any(|k| k.ends_with(".controller") && decided_by_label(k))
         && (2..=6).contains(&values_of(&rows, "label").len());
+    // The key to split curves by, among `ks`.
+    let split_by = |ks: &[String]| {
+        if label_for_controller {
+            Some("label".to_string())
+        } else {
+            series_key(&rows, ks, None)
+        }
+    };
     let x_keys: Vec<Option<String>> = if plotted.is_empty() {
         vec![None]
     } else {
@@ -508,11 +516,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         }
         (g, "parameter set".into())
     } else {
-        let k = if label_for_controller {
-            Some("label".to_string())
-        } else {
-            series_key(&rows, &keys, None).or_else(|| keys.first().cloned())
-        };
+        let k = split_by(&keys).or_else(|| keys.first().cloned());
         match k {
             Some(k) => {
                 let vals = values_of(&rows, &k);
@@ -571,11 +575,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .filter(|k| Some(*k) != count_key.as_ref())
             .cloned()
             .collect();
-        let s_key = if label_for_controller {
-            Some("label".to_string())
-        } else {
-            series_key(&rows, &others, None)
-        };
+        let s_key = split_by(&others);
         let cats: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
         let p = category_plot(
             &rows,
@@ -604,6 +604,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let parts: Vec<(String, Vec<&StoredTrial>)> = match &s_key {
             Some(k) => values_of(&rows, k)
                 .into_iter()
+                .take(6)
                 .map(|v| {
                     let rs = rows.iter().filter(|r| value(r, k) == v).collect();
                     (v, rs)
@@ -611,7 +612,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 .collect(),
             None => vec![(String::new(), rows.iter().collect())],
         };
-        for (v, rs) in parts.iter().take(6) {
+        for (v, rs) in &parts {
             let curves: Vec<(String, Vec<(f64, f64)>)> = sizes
                 .iter()
                 .filter_map(|n| {

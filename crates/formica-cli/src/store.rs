@@ -252,10 +252,7 @@ impl Store {
         }
         if !writers.contains(&me) {
             writers.push(me.clone());
-            self.set_meta(
-                "writers",
-                &serde_json::to_string(&writers).context("encoding writers")?,
-            )?;
+            self.set_writers(&writers)?;
         }
         if theirs.is_none() {
             self.set_meta("results_format", &me.results_format.to_string())?;
@@ -264,10 +261,17 @@ impl Store {
             self.set_meta("platform", &me.platform)?;
             self.set_meta("scenario_sha256", scenarios_sha256)?;
         }
+        self.adopt(sweep, path, "--db")
+    }
+
+    /// Records that this store holds trials of `sweep` (its digest, name, file and varied keys,
+    /// with a column each), or refuses a store of a different sweep, telling the user to use
+    /// another `what` (`--db` for a sweep).
+    pub fn adopt(&self, sweep: &Sweep, path: &Path, what: &str) -> Result<(), CliError> {
         match self.meta("digest")? {
             Some(d) if d != sweep.digest => {
                 return Err(CliError::Input(format!(
-                    "{}: this store holds a different sweep (its base scenario, [set] or duration_s differ from {}); use another --db",
+                    "{}: this store holds a different sweep (its base scenario, [set] or duration_s differ from {}); use another {what}",
                     path.display(),
                     sweep.file.display()
                 )))
@@ -295,41 +299,12 @@ impl Store {
         self.ensure_columns(&sweep.keys)
     }
 
-    /// Records that this store holds trials of `sweep` without running any (as `formica merge
-    /// --sweep` fills it), or refuses a store of a different sweep.
-    pub fn adopt(
-        &self,
-        sweep: &Sweep,
-        path: &Path,
-        scenarios_sha256: &str,
-    ) -> Result<(), CliError> {
-        match self.meta("digest")? {
-            Some(d) if d != sweep.digest => {
-                return Err(CliError::Input(format!(
-                    "{}: this store holds a different sweep (its base scenario, [set] or duration_s differ from {}); use another store",
-                    path.display(),
-                    sweep.file.display()
-                )))
-            }
-            Some(_) => {}
-            None => {
-                self.set_meta("digest", &sweep.digest)?;
-                self.set_meta("name", &sweep.name)?;
-                self.set_meta("sweep", &sweep.file.display().to_string())?;
-                self.set_meta("scenario_sha256", scenarios_sha256)?;
-            }
-        }
-        let mut keys = self.keys()?;
-        for k in &sweep.keys {
-            if !keys.contains(k) {
-                keys.push(k.clone());
-            }
-        }
+    /// Records the builds that wrote into the store (`meta` key `writers`).
+    pub fn set_writers(&self, writers: &[Writer]) -> Result<(), CliError> {
         self.set_meta(
-            "keys",
-            &serde_json::to_string(&keys).context("encoding keys")?,
-        )?;
-        self.ensure_columns(&sweep.keys)
+            "writers",
+            &serde_json::to_string(writers).context("encoding writers")?,
+        )
     }
 
     /// The column names of `trials`.
