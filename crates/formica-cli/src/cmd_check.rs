@@ -93,6 +93,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
         if let Some(warning) = goal_color_warning(&sc, g) {
             outln!("    warning: {warning}");
         }
+        if let Some(warning) = camera_range_warning(&sc, w, g) {
+            outln!("    warning: {warning}");
+        }
     }
     let steps = match s.run.substeps {
         formica::scenario::Substeps::Auto => format!(
@@ -170,11 +173,16 @@ fn goal_reached_warning(w: &World, radius: f32) -> Option<String> {
     })
 }
 
-/// Warnings `formica run` prints too: set-ups under which a run cannot do what it is meant to
-/// (robots that look for a goal colour no light shows), one per robot group.
-pub(crate) fn run_warnings(sc: &Scenario) -> Vec<String> {
+/// Warnings `formica run` and `formica sweep` print too, for the world `w` built from `sc`:
+/// set-ups under which a run cannot do what it is meant to (robots that look for a goal colour
+/// no light shows, or cannot see the object and a goal at once).
+pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
     (0..sc.spec.robots.len())
-        .filter_map(|g| goal_color_warning(sc, g))
+        .flat_map(|g| {
+            goal_color_warning(sc, g)
+                .into_iter()
+                .chain(camera_range_warning(sc, w, g))
+        })
         .collect()
 }
 
@@ -192,19 +200,7 @@ fn group_params(sc: &Scenario, g: usize) -> Option<toml::Table> {
 /// `relay.goal_color`, since then no robot ever sees the goal (relays never form, and every
 /// robot takes the goal for hidden).
 fn goal_color_warning(sc: &Scenario, g: usize) -> Option<String> {
-    use formica::controller::parse_params_with_defaults;
-    use formica::controllers::{fill_transport, occlusion};
-    let params = group_params(sc, g);
-    let p: occlusion::Params = match sc.spec.robots[g].get_ref().controller.get_ref().as_str() {
-        "occlusion" => parse_params_with_defaults(params.as_ref()).ok()?,
-        "fill-transport" => parse_params_with_defaults::<fill_transport::Params>(params.as_ref())
-            .ok()?
-            .pusher(),
-        _ => return None,
-    };
-    if !p.goal_camera() {
-        return None;
-    }
+    let p = goal_camera_params(sc, g)?;
     let want = p.relay.goal_color;
     let Some(i) = sc.goal_light() else {
         return Some("the camera looks for the goal, but there is no goal light".into());
@@ -221,6 +217,49 @@ fn goal_color_warning(sc: &Scenario, g: usize) -> Option<String> {
              lights.{i}.color = \"{}\")",
             want.name(),
             want.name()
+        )
+    })
+}
+
+/// The pushing parameters of group `g` if it runs `occlusion` or `fill-transport` and sees the
+/// goal with its camera (`relays = true` or `goal_sensor = "camera"`).
+fn goal_camera_params(sc: &Scenario, g: usize) -> Option<formica::controllers::occlusion::Params> {
+    use formica::controller::parse_params_with_defaults;
+    use formica::controllers::{fill_transport, occlusion};
+    let params = group_params(sc, g);
+    let p: occlusion::Params = match sc.spec.robots[g].get_ref().controller.get_ref().as_str() {
+        "occlusion" => parse_params_with_defaults(params.as_ref()).ok()?,
+        "fill-transport" => parse_params_with_defaults::<fill_transport::Params>(params.as_ref())
+            .ok()?
+            .pusher(),
+        _ => return None,
+    };
+    p.goal_camera().then_some(p)
+}
+
+/// For a group that sees the goal with its camera and approaches the object only with a goal
+/// in sight (`relay.gate_memory_s` unset or 0, as Queiroz and MacRae): a warning if the camera
+/// or the colour scan reaches less far than the goal is from the target object's start. A
+/// robot then seldom or never sees the object and a goal at once, and no robot starts
+/// (`scenarios/qm-open.toml` with the default 1.5 m camera and 1.0 m scan: 0 of 10).
+fn camera_range_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
+    let p = goal_camera_params(sc, g)?;
+    if p.relay.gate_memory_s.unwrap_or(0.0) > 0.0 {
+        return None;
+    }
+    let d = (w.object_center(w.target?) - w.goal()?).length();
+    let s = &w.groups.get(g)?.sensors;
+    let reach = s.camera_range.min(s.scan_range);
+    (reach < d).then(|| {
+        format!(
+            "robots.{g} approaches the object only with the object (colour scan, {} m) and a \
+             goal (camera, {} m) in sight at once, but the goal is {d:.2} m from the object: \
+             robots may never start (Queiroz and MacRae's cameras reach 100 m; set \
+             robots.{g}.sensors.camera_range and scan_range to at least {:.1}, or \
+             robots.{g}.params.relay.gate_memory_s to let a goal seen earlier do)",
+            s.scan_range,
+            s.camera_range,
+            (d * 10.0).ceil() / 10.0
         )
     })
 }

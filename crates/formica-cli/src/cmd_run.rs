@@ -170,8 +170,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     crate::check_duration(a.duration)?;
     crate::check_seed(a.seed)?;
-    for w in crate::cmd_check::run_warnings(&sc) {
-        eprintln!("{}: warning: {w}", sc.file);
+    // (A world that cannot be built is reported by the run itself, with its seed.)
+    if let Ok(run) = Run::new(&sc, &RunOptions::default()) {
+        for w in crate::cmd_check::run_warnings(&sc, &run.world) {
+            eprintln!("{}: warning: {w}", sc.file);
+        }
     }
     match &a.seeds {
         Some(s) => run_many(&a, &sc, parse_seeds(s)?),

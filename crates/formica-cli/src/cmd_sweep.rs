@@ -132,6 +132,27 @@ pub fn main(a: Args) -> Result<(), CliError> {
         Some((k, n)) => all.iter().copied().filter(|t| t.index % n == k).collect(),
         None => all.clone(),
     };
+    // Check every parameter set builds before fanning out (and in a dry run), so errors are
+    // reported once.
+    for set in &sweep.sets {
+        let run = Run::new(
+            &set.scenario,
+            &RunOptions {
+                overrides: Overrides {
+                    seed: sweep.seeds.first().copied(),
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        )
+        .map_err(|e| CliError::Input(format!("{} (parameter set {})", e, set.key)))?;
+        for w in crate::cmd_check::run_warnings(&set.scenario, &run.world) {
+            eprintln!(
+                "{}: warning: {w} (parameter set {})",
+                set.scenario.file, set.key
+            );
+        }
+    }
     if a.dry_run {
         for t in &mine {
             outln!(
@@ -150,26 +171,6 @@ pub fn main(a: Args) -> Result<(), CliError> {
             mine.len()
         );
         return Ok(());
-    }
-    // Check every parameter set builds before fanning out, so errors are reported once.
-    for set in &sweep.sets {
-        Run::new(
-            &set.scenario,
-            &RunOptions {
-                overrides: Overrides {
-                    seed: sweep.seeds.first().copied(),
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-        )
-        .map_err(|e| CliError::Input(format!("{} (parameter set {})", e, set.key)))?;
-        for w in crate::cmd_check::run_warnings(&set.scenario) {
-            eprintln!(
-                "{}: warning: {w} (parameter set {})",
-                set.scenario.file, set.key
-            );
-        }
     }
     // Each parameter set's provenance (the seed is not part of the scenario's digest).
     let provenance: Vec<Provenance> = sweep

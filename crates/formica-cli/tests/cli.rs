@@ -400,6 +400,56 @@ fn check_warns_when_the_camera_goal_has_no_goal_colour() {
 }
 
 #[test]
+fn check_warns_when_relays_cannot_see_the_object_and_a_goal_at_once() {
+    // qm-open's goal is 2.83 m from the object. Its cameras reach 4.5 m; with the default
+    // camera (1.5 m) and scan (1.0 m) no robot sees both at once, and relays never start
+    // (0 of 10 runs). check, run and sweep --dry-run say so; a goal memory silences it.
+    let dir = tmp("camera-range");
+    let check = |text: String| check_text(&dir, &text);
+    let qm = std::fs::read_to_string(repo("scenarios/qm-open.toml")).unwrap();
+    let long = check(qm.clone());
+    assert!(!long.contains("warning"), "{long}");
+    let short_text = qm.replace(", camera_range = 4.5, scan_range = 4.5", "");
+    assert_ne!(short_text, qm);
+    let short = check(short_text.clone());
+    assert!(
+        short.contains("but the goal is 2.83 m from the object")
+            && short.contains("camera_range and scan_range to at least 2.9"),
+        "{short}"
+    );
+    let memory = check(short_text.replace(
+        "params = { relays = true }",
+        "params = { relays = true, relay = { gate_memory_s = 60 } }",
+    ));
+    assert!(!memory.contains("warning"), "{memory}");
+    let f = dir.join("short.toml");
+    std::fs::write(&f, &short_text).unwrap();
+    let out = formica()
+        .args(["run", "--duration", "1"])
+        .arg(&f)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stderr.contains("robots may never start"),
+        "{stderr}"
+    );
+    let sweep = dir.join("short-sweep.toml");
+    std::fs::write(&sweep, "scenario = \"short.toml\"\nseeds = \"1..2\"\n").unwrap();
+    let out = formica()
+        .args(["sweep", "--dry-run", "--db"])
+        .arg(dir.join("dry.db"))
+        .arg(&sweep)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stderr.contains("robots may never start"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
     // One physics step per tick lets a Khepera IV at 0.8 m/s move 8 cm per step, more than a
     // third of its radius: check warns, run refuses, --force runs.
