@@ -151,8 +151,18 @@ impl Store {
         conn.busy_timeout(std::time::Duration::from_secs(30))
             .context("setting the busy timeout")?;
         // WAL: a committed trial survives the process being killed at any moment.
-        conn.pragma_update(None, "journal_mode", "WAL")
-            .context("enabling WAL")?;
+        // The first statement reads the file: a file that is not SQLite fails here.
+        if let Err(e) = conn.pragma_update(None, "journal_mode", "WAL") {
+            if e.sqlite_error_code() == Some(rusqlite::ErrorCode::NotADatabase) {
+                return Err(CliError::Input(format!(
+                    "{}: not a result store (not an SQLite file)",
+                    path.display()
+                )));
+            }
+            return Err(anyhow::Error::new(e)
+                .context(format!("{}: enabling WAL", path.display()))
+                .into());
+        }
         conn.pragma_update(None, "synchronous", "NORMAL")
             .context("setting synchronous")?;
         let metrics: Vec<String> = METRICS

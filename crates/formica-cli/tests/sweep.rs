@@ -387,6 +387,47 @@ fn bad_sweep_files_exit_with_code_2_naming_file_and_key() {
 }
 
 #[test]
+fn a_file_that_is_not_a_store_is_named_and_refused_with_code_2() {
+    // A mistyped --db (a scenario, a CSV) gets the file's name and what is wrong, exit 2,
+    // and the file is left as it was, for report, sweep and export alike.
+    let dir = tmp("not-a-store");
+    let file = write_sweep(&dir, "1..2");
+    let not = dir.join("notes.db");
+    std::fs::write(&not, "x = 1\n".repeat(200)).unwrap();
+    let before = std::fs::read(&not).unwrap();
+    let runs: [Vec<std::ffi::OsString>; 3] = [
+        vec![
+            "report".into(),
+            not.clone().into(),
+            "--out".into(),
+            dir.join("r").into(),
+        ],
+        vec![
+            "sweep".into(),
+            file.clone().into(),
+            "--db".into(),
+            not.clone().into(),
+        ],
+        vec![
+            "export".into(),
+            not.clone().into(),
+            "--csv".into(),
+            dir.join("e.csv").into(),
+        ],
+    ];
+    for args in runs {
+        let out = formica().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("notes.db: not a result store"),
+            "{args:?}: {err}"
+        );
+    }
+    assert_eq!(std::fs::read(&not).unwrap(), before);
+}
+
+#[test]
 fn slurm_writes_a_job_array_over_the_shards() {
     let dir = tmp("slurm");
     let file = write_sweep(&dir, "1..2");
