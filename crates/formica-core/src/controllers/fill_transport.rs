@@ -204,9 +204,9 @@ pub struct Params {
     /// pusher. Default 120; 240 with relays (results format 17 and earlier: 240 everywhere). A
     /// crowd of fillers jammed round a small object shoves it while nobody pushes: 30 robots
     /// round a 0.4 m square on `qm-open` without relays, seeds 1-20, 12 successes at 240 s
-    /// (8 objects pressed into the corner behind them), 17 at 120 and at 90, 14 at 150; on the
-    /// U, 90 left two runs of 20 with no robot attached, 120 none. With relays the obstacle
-    /// study's figures were measured at 240.
+    /// (8 timeouts, the traced ones with the square pressed into the corner behind it), 17 at
+    /// 120 and at 90, 14 at 150; on the U, 90 left two runs of 20 with no robot attached, 120
+    /// none. With relays the obstacle study's figures were measured at 240.
     pub stall_s: Option<f32>,
     /// Lap progress (degrees around the object's centre) that counts as advancing. Default 30.
     pub stall_deg: f32,
