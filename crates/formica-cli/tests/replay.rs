@@ -2,24 +2,12 @@
 //! list failed trials with a gallery, videos record, and every result carries its provenance.
 
 use std::path::{Path, PathBuf};
-use std::process::Output;
 
 mod common;
-use common::{formica, repo};
+use common::{formica, ok, repo};
 
 fn tmp(name: &str) -> PathBuf {
     common::tmp("replay", name)
-}
-
-fn ok(out: Output) -> Output {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
 }
 
 /// The smoke study's store (24 trials, trajectories on), made once per test that needs it.

@@ -7,21 +7,10 @@ use std::process::Output;
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{formica, repo};
+use common::{formica, ok, repo};
 
 fn tmp(name: &str) -> PathBuf {
     common::tmp("sweep", name)
-}
-
-fn ok(out: Output) -> Output {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
 }
 
 /// A small, fast sweep (36 trials of up to 200 simulated seconds) on the seed's transport scenario,
