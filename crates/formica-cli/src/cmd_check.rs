@@ -186,6 +186,19 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
         .collect()
 }
 
+/// [`run_warnings`] for a scenario whose world is not built yet: builds one only if a group
+/// sees the goal with its camera, the one warning that needs the world. (A world that cannot be
+/// built is left to the run, which reports it with its seed.)
+pub(crate) fn warnings_before_run(sc: &Scenario) -> Vec<String> {
+    let camera = (0..sc.spec.robots.len()).any(|g| goal_camera_params(sc, g).is_some());
+    match camera.then(|| Run::new(sc, &RunOptions::default())) {
+        Some(Ok(run)) => run_warnings(sc, &run.world),
+        _ => (0..sc.spec.robots.len())
+            .filter_map(|g| goal_color_warning(sc, g))
+            .collect(),
+    }
+}
+
 /// Group `g`'s controller parameters, as the file (and `--set`) give them.
 fn group_params(sc: &Scenario, g: usize) -> Option<toml::Table> {
     sc.spec.robots[g]

@@ -170,11 +170,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     crate::check_duration(a.duration)?;
     crate::check_seed(a.seed)?;
-    // (A world that cannot be built is reported by the run itself, with its seed.)
-    if let Ok(run) = Run::new(&sc, &RunOptions::default()) {
-        for w in crate::cmd_check::run_warnings(&sc, &run.world) {
-            eprintln!("{}: warning: {w}", sc.file);
-        }
+    for w in crate::cmd_check::warnings_before_run(&sc) {
+        eprintln!("{}: warning: {w}", sc.file);
     }
     match &a.seeds {
         Some(s) => run_many(&a, &sc, parse_seeds(s)?),

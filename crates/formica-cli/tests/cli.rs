@@ -16,6 +16,19 @@ fn check_text(dir: &std::path::Path, text: &str) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
+/// `formica run --duration 1` on `text` written to `file`: it must succeed; its stderr.
+fn run_briefly_stderr(file: &std::path::Path, text: &str) -> String {
+    std::fs::write(file, text).unwrap();
+    let out = formica()
+        .args(["run", "--duration", "1"])
+        .arg(file)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    stderr
+}
+
 #[test]
 fn every_shipped_scenario_checks() {
     for entry in std::fs::read_dir(repo("scenarios")).unwrap() {
@@ -385,16 +398,12 @@ fn check_warns_when_the_camera_goal_has_no_goal_colour() {
     let light = check(seed);
     assert!(!light.contains("goal light has no colour"), "{light}");
     // `run` says it too, on stderr, before it runs.
-    let f = dir.join("plain.toml");
-    std::fs::write(&f, qm.replace("color = \"cyan\"\n", "")).unwrap();
-    let out = formica()
-        .args(["run", "--duration", "1"])
-        .arg(&f)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = run_briefly_stderr(
+        &dir.join("plain.toml"),
+        &qm.replace("color = \"cyan\"\n", ""),
+    );
     assert!(
-        out.status.success() && stderr.contains("warning: robots.0 sees the goal with its camera"),
+        stderr.contains("warning: robots.0 sees the goal with its camera"),
         "{stderr}"
     );
 }
@@ -422,18 +431,8 @@ fn check_warns_when_relays_cannot_see_the_object_and_a_goal_at_once() {
         "params = { relays = true, relay = { gate_memory_s = 60 } }",
     ));
     assert!(!memory.contains("warning"), "{memory}");
-    let f = dir.join("short.toml");
-    std::fs::write(&f, &short_text).unwrap();
-    let out = formica()
-        .args(["run", "--duration", "1"])
-        .arg(&f)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success() && stderr.contains("robots may never start"),
-        "{stderr}"
-    );
+    let stderr = run_briefly_stderr(&dir.join("short.toml"), &short_text);
+    assert!(stderr.contains("robots may never start"), "{stderr}");
     let sweep = dir.join("short-sweep.toml");
     std::fs::write(&sweep, "scenario = \"short.toml\"\nseeds = \"1..2\"\n").unwrap();
     let out = formica()
