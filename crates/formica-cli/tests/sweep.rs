@@ -455,3 +455,71 @@ fn every_shipped_study_builds_every_parameter_set() {
         }
     }
 }
+
+#[test]
+fn the_obstacle_designs_slices_run_its_cases_its_seeds_and_its_grid() {
+    // experiments/queiroz-macrae-obstacles.toml is put together from its slices by `formica
+    // merge --sweep`, which takes a slice's trial in only if the design has the same canonical
+    // scenario and seed: a case changed in one file and not the other would silently drop its
+    // trials from the design's store.
+    let read = |name: &str| -> toml::Table {
+        let path = repo("experiments").join(name);
+        toml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap()
+    };
+    let design = read("queiroz-macrae-obstacles.toml");
+    let cases = |t: &toml::Table| -> Vec<toml::Table> {
+        t["cases"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c.as_table().unwrap().clone())
+            .collect()
+    };
+    let design_cases = cases(&design);
+    let design_vary = design["vary"].as_table().unwrap();
+    let mut slices = 0;
+    for entry in std::fs::read_dir(repo("experiments")).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        if !name.starts_with("queiroz-macrae-obstacles-n") || !name.ends_with(".toml") {
+            continue;
+        }
+        slices += 1;
+        let slice = read(&name);
+        assert_eq!(slice["seeds"], design["seeds"], "{name}: seeds");
+        assert_eq!(
+            slice["duration_s"], design["duration_s"],
+            "{name}: duration"
+        );
+        let fixed = slice["set"].as_table().unwrap();
+        for (key, values) in slice["vary"].as_table().unwrap() {
+            let all = design_vary[key.as_str()].as_array().unwrap();
+            for v in values.as_array().unwrap() {
+                assert!(
+                    all.contains(v),
+                    "{name}: vary.{key} has {v}, not in the design"
+                );
+            }
+        }
+        for (key, value) in fixed {
+            match design_vary.get(key) {
+                Some(values) => assert!(
+                    values.as_array().unwrap().contains(value),
+                    "{name}: set.{key} = {value} is not one of the design's values"
+                ),
+                None => assert_eq!(Some(value), design["set"].get(key), "{name}: set.{key}"),
+            }
+        }
+        for case in cases(&slice) {
+            let label = &case["label"];
+            let twin = design_cases
+                .iter()
+                .find(|c| &c["label"] == label)
+                .unwrap_or_else(|| panic!("{name}: case {label} is not a case of the design"));
+            assert_eq!(
+                &case, twin,
+                "{name}: case {label} differs from the design's"
+            );
+        }
+    }
+    assert_eq!(slices, 7, "the design's seven slices");
+}
