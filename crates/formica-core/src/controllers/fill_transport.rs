@@ -539,7 +539,6 @@ impl FillTransport {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> FillTransport {
         let reach = p.reach();
-        let stall_s = p.stall_s;
         let mut pusher = Occlusion::new(p.pusher(), layout);
         pusher.add_relay_object_color(Color::Blue);
         FillTransport {
@@ -549,7 +548,7 @@ impl FillTransport {
             pushing: false,
             occluded_within: p.occluded_within_deg.to_radians(),
             reach_margin: p.reach_margin,
-            stall_s,
+            stall_s: p.stall_s,
             stall_rad: p.stall_deg.to_radians(),
             lap_anchor: None,
             lap_start: None,
@@ -1156,7 +1155,8 @@ mod tests {
         // a lap. Its lap progress is the record, so it stalls after `stall_s` (120 s, with or
         // without relays) and pushes; counted as any swing of 30 degrees it would fill for ever.
         let layout = SensorLayout::of(&RobotModel::khepera4(), &SensorConfig::default());
-        for (relays, stall) in [(false, 120.0), (true, 120.0)] {
+        let stall = 120.0;
+        for relays in [false, true] {
             let p = Params {
                 relays,
                 ..Params::default()
