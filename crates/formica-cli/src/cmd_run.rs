@@ -56,13 +56,15 @@ pub struct Args {
     pub trial: Option<String>,
 }
 
-/// Parses a seed range `A..B` (inclusive; `A..=B` also accepted) of at most
+/// Parses a seed range `A..B` (inclusive; `A..=B` and one seed `N` also accepted) of at most
 /// [`MAX_TRIALS`](formica::limits::MAX_TRIALS) seeds, each at most
 /// [`MAX_SEED`](formica::limits::MAX_SEED); the error says what was expected.
 pub fn seed_range(s: &str) -> Result<std::ops::RangeInclusive<u64>, String> {
     use formica::limits::{MAX_SEED, MAX_TRIALS};
-    let expected = || format!("expected A..B with 0 <= A <= B <= {MAX_SEED}, got `{s}`");
-    let (a, b) = s.split_once("..").ok_or_else(expected)?;
+    let expected =
+        || format!("expected A..B with 0 <= A <= B <= {MAX_SEED}, or one seed N, got `{s}`");
+    // One seed `N` is the range `N..N`.
+    let (a, b) = s.split_once("..").unwrap_or((s, s));
     let a: u64 = a.trim().parse().map_err(|_| expected())?;
     let b: u64 = b
         .trim()

@@ -419,5 +419,12 @@ mod tests {
         let twice = toml::Value::Array(vec![toml::Value::Integer(1), toml::Value::Integer(1)]);
         assert!(parse_seeds(&twice).is_err());
         assert!(parse_seeds(&toml::Value::Integer(5)).is_err());
+        // One seed written as a range's string: `"7"` is `"7..7"`.
+        assert_eq!(
+            parse_seeds(&toml::Value::String("7".into())).unwrap(),
+            vec![7]
+        );
+        assert!(parse_seeds(&toml::Value::String("x".into())).is_err());
+        assert!(parse_seeds(&toml::Value::String("".into())).is_err());
     }
 }

@@ -486,6 +486,37 @@ fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
 }
 
 #[test]
+fn one_seed_given_to_seeds_runs_that_seed() {
+    let sc = repo("scenarios/seed-transport.toml");
+    let run = |args: &[&str]| {
+        let out = formica()
+            .arg("run")
+            .arg(&sc)
+            .args(["--duration", "2", "--json"])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
+        let first = text.lines().next().unwrap().to_string();
+        let v: serde_json::Value = serde_json::from_str(&first).unwrap();
+        (
+            v["seed"].clone(),
+            v["ticks"].clone(),
+            v["goal_distance_m"].clone(),
+        )
+    };
+    let one = run(&["--seeds", "3"]);
+    assert_eq!(one.0, serde_json::json!(3));
+    assert_eq!(one, run(&["--seeds", "3..3"]));
+    assert_eq!(one, run(&["--seed", "3"]));
+}
+
+#[test]
 fn seed_range_too_large_is_refused() {
     let sc = repo("scenarios/seed-transport.toml");
     for (range, msg) in [
