@@ -93,6 +93,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
         if let Some(warning) = goal_color_warning(&sc, g) {
             outln!("    warning: {warning}");
         }
+        if let Some(warning) = no_goal_warning(&sc, g) {
+            outln!("    warning: {warning}");
+        }
         if let Some(warning) = camera_range_warning(&sc, w, g) {
             outln!("    warning: {warning}");
         }
@@ -113,7 +116,13 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if let Some(w) = sc.physics_warning() {
         outln!("    warning: {w}");
     }
-    if let Some(r) = run.goal_radius() {
+    if w.goal().is_none() {
+        outln!(
+            "  stop: no goal light, so no trial succeeds (each ends by the wall rule or at its \
+             time limit); wall: {}",
+            s.stop.on_wall
+        );
+    } else if let Some(r) = run.goal_radius() {
         outln!(
             "  stop: success within {r:.3} m of the goal; wall: {}",
             s.stop.on_wall
@@ -181,6 +190,7 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
         .flat_map(|g| {
             goal_color_warning(sc, g)
                 .into_iter()
+                .chain(no_goal_warning(sc, g))
                 .chain(camera_range_warning(sc, w, g))
         })
         .collect()
@@ -194,9 +204,29 @@ pub(crate) fn warnings_before_run(sc: &Scenario) -> Vec<String> {
     match camera.then(|| Run::new(sc, &RunOptions::default())) {
         Some(Ok(run)) => run_warnings(sc, &run.world),
         _ => (0..sc.spec.robots.len())
-            .filter_map(|g| goal_color_warning(sc, g))
+            .flat_map(|g| {
+                goal_color_warning(sc, g)
+                    .into_iter()
+                    .chain(no_goal_warning(sc, g))
+            })
             .collect(),
     }
+}
+
+/// For a group running a transport controller (`occlusion`, `fill-transport`): a warning if
+/// no light is the goal (every light sets `goal = false`, or there is none), since then no
+/// trial can succeed. (A group that sees the goal with its camera gets
+/// [`goal_color_warning`]'s instead.)
+fn no_goal_warning(sc: &Scenario, g: usize) -> Option<String> {
+    let controller = sc.spec.robots[g].get_ref().controller.get_ref();
+    let transports = matches!(controller.as_str(), "occlusion" | "fill-transport")
+        && goal_camera_params(sc, g).is_none();
+    (transports && sc.goal_light().is_none()).then(|| {
+        format!(
+            "robots.{g} runs {controller}, which carries the object to the goal light, but no \
+             light is the goal: no trial can succeed (set goal = true on one light)"
+        )
+    })
 }
 
 /// Group `g`'s controller parameters, as the file (and `--set`) give them.

@@ -409,6 +409,34 @@ fn check_warns_when_the_camera_goal_has_no_goal_colour() {
 }
 
 #[test]
+fn check_and_run_say_when_no_light_is_the_goal() {
+    // A transport scenario whose one light sets goal = false can never succeed: check says so
+    // in its stop line and as a warning, and run warns before it runs.
+    let dir = tmp("no-goal");
+    let seed = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
+    let with_goal = check_text(&dir, &seed);
+    assert!(
+        with_goal.contains("stop: success within") && !with_goal.contains("no light is the goal"),
+        "{with_goal}"
+    );
+    let no_goal = seed.replace("goal = true", "goal = false");
+    let checked = check_text(&dir, &no_goal);
+    assert!(
+        checked.contains("stop: no goal light, so no trial succeeds")
+            && checked.contains("warning: robots.0 runs occlusion, which carries the object to the goal light, but no light is the goal"),
+        "{checked}"
+    );
+    let stderr = run_briefly_stderr(&dir.join("no-goal.toml"), &no_goal);
+    assert!(stderr.contains("no light is the goal"), "{stderr}");
+    // Controllers that carry nothing are not warned about.
+    let walk = check_text(
+        &dir,
+        &no_goal.replace("controller = \"occlusion\"", "controller = \"random-walk\""),
+    );
+    assert!(!walk.contains("no light is the goal"), "{walk}");
+}
+
+#[test]
 fn check_warns_when_relays_cannot_see_the_object_and_a_goal_at_once() {
     // qm-open's goal is 2.83 m from the object. Its cameras reach 4.5 m; with the default
     // camera (1.5 m) and scan (1.0 m) no robot sees both at once, and relays never start
