@@ -24,11 +24,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if let Some(d) = &s.description {
         outln!("  description: {}", d.trim());
     }
+    let walls = match s.walls.len() {
+        1 => "1 extra wall".to_string(),
+        n => format!("{n} extra walls"),
+    };
     outln!(
-        "  arena: {} x {} m, {} extra walls",
+        "  arena: {} x {} m, {walls}",
         s.arena.size[0],
-        s.arena.size[1],
-        s.walls.len()
+        s.arena.size[1]
     );
     for (i, l) in s.lights.iter().map(|l| l.get_ref()).enumerate() {
         let goal = if w.goal_light == Some(i) {
