@@ -409,6 +409,29 @@ fn check_warns_when_the_camera_goal_has_no_goal_colour() {
 }
 
 #[test]
+fn check_on_a_sweep_file_points_to_sweep_dry_run() {
+    let out = formica()
+        .arg("check")
+        .arg(repo("experiments/unseen.toml"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("a sweep file") && err.contains("--dry-run"),
+        "{err}"
+    );
+    // A broken scenario still gets the scenario's own error, with its line.
+    let dir = tmp("check-sweep");
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("s.toml");
+    std::fs::write(&f, "name = \"x\"\n").unwrap();
+    let out = formica().arg("check").arg(&f).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("missing field `arena`"), "{err}");
+}
+
+#[test]
 fn check_and_run_say_when_no_light_is_the_goal() {
     // A transport scenario whose one light sets goal = false can never succeed: check says so
     // in its stop line and as a warning, and run warns before it runs.
