@@ -112,9 +112,9 @@ fn tidy(v: &mut Value) {
 
 pub(crate) fn seeds_schema(_: &mut SchemaGenerator) -> Schema {
     json_schema!({
-        "description": "`\"A..B\"` (inclusive, A <= B) or a list of distinct seeds.",
+        "description": "`\"A..B\"` (inclusive, A <= B; `\"N\"` is seed N alone) or a list of distinct seeds.",
         "anyOf": [
-            { "type": "string", "pattern": "^[0-9]+\\.\\.[0-9]+$" },
+            { "type": "string", "pattern": "^[0-9]+(\\.\\.=?[0-9]+)?$" },
             {
                 "type": "array",
                 "minItems": 1,
