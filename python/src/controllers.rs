@@ -729,6 +729,28 @@ fn describe(py: Python<'_>, e: &PyErr) -> String {
     format!("{kind}: {}", e.value(py))
 }
 
+/// What a Python controller's factory is built from: the layout's shape, the scenario's
+/// parameters as keyword arguments and the layout as Python sees it.
+type FactoryArgs = (Arc<Shape>, Py<PyDict>, Py<PyLayout>);
+
+/// [`FactoryArgs`] for `params` and `layout`; an error says what Python raised.
+fn factory_args(
+    py: Python<'_>,
+    params: Option<&toml::Table>,
+    layout: &SensorLayout,
+) -> Result<FactoryArgs, String> {
+    let shape = Arc::new(Shape::of(layout));
+    let kwargs = match params {
+        Some(t) => table_to_py(py, t),
+        None => Ok(PyDict::new(py)),
+    }
+    .map_err(|e| describe(py, &e))?
+    .unbind();
+    let py_layout =
+        Py::new(py, PyLayout::new(layout, shape.clone())).map_err(|e| describe(py, &e))?;
+    Ok((shape, kwargs, py_layout))
+}
+
 /// Registers the per-robot Python controller class `cls` as `name`.
 #[pyfunction]
 pub fn register_robot(name: String, cls: Py<PyAny>, needs: Vec<String>) -> PyResult<()> {
@@ -738,15 +760,7 @@ pub fn register_robot(name: String, cls: Py<PyAny>, needs: Vec<String>) -> PyRes
                       layout: &SensorLayout|
           -> Result<ControllerFactory, String> {
         Python::attach(|py| {
-            let shape = Arc::new(Shape::of(layout));
-            let kwargs = match params {
-                Some(t) => table_to_py(py, t),
-                None => Ok(PyDict::new(py)),
-            }
-            .map_err(|e| describe(py, &e))?
-            .unbind();
-            let py_layout =
-                Py::new(py, PyLayout::new(layout, shape.clone())).map_err(|e| describe(py, &e))?;
+            let (shape, kwargs, py_layout) = factory_args(py, params, layout)?;
             // Build one now, so that bad parameters fail where the scenario is checked.
             cls.bind(py)
                 .call((py_layout.clone_ref(py),), Some(kwargs.bind(py)))
@@ -938,15 +952,7 @@ pub fn register_batch(
                       layout: &SensorLayout|
           -> Result<ControllerFactory, String> {
         Python::attach(|py| {
-            let shape = Arc::new(Shape::of(layout));
-            let kwargs = match params {
-                Some(t) => table_to_py(py, t),
-                None => Ok(PyDict::new(py)),
-            }
-            .map_err(|e| describe(py, &e))?
-            .unbind();
-            let py_layout =
-                Py::new(py, PyLayout::new(layout, shape.clone())).map_err(|e| describe(py, &e))?;
+            let (shape, kwargs, py_layout) = factory_args(py, params, layout)?;
             maker
                 .bind(py)
                 .call1((py_layout.clone_ref(py), kwargs.clone_ref(py)))
