@@ -423,7 +423,6 @@ fn check_on_a_sweep_file_points_to_sweep_dry_run() {
     );
     // A broken scenario still gets the scenario's own error, with its line.
     let dir = tmp("check-sweep");
-    std::fs::create_dir_all(&dir).unwrap();
     let f = dir.join("s.toml");
     std::fs::write(&f, "name = \"x\"\n").unwrap();
     let out = formica().arg("check").arg(&f).output().unwrap();
@@ -540,17 +539,14 @@ fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
 fn one_seed_given_to_seeds_runs_that_seed() {
     let sc = repo("scenarios/seed-transport.toml");
     let run = |args: &[&str]| {
-        let out = formica()
-            .arg("run")
-            .arg(&sc)
-            .args(["--duration", "2", "--json"])
-            .args(args)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let out = common::ok(
+            formica()
+                .arg("run")
+                .arg(&sc)
+                .args(["--duration", "2", "--json"])
+                .args(args)
+                .output()
+                .unwrap(),
         );
         let text = String::from_utf8_lossy(&out.stdout).to_string();
         let first = text.lines().next().unwrap().to_string();
