@@ -215,16 +215,21 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
                 .into_iter()
                 .chain(no_goal_warning(sc, g))
                 .chain(camera_range_warning(sc, w, g))
+                .chain(reach_warning(sc, w, g))
         })
         .collect()
 }
 
 /// [`run_warnings`] for a scenario whose world is not built yet: builds one only if a group
-/// sees the goal with its camera, the one warning that needs the world. (A world that cannot be
-/// built is left to the run, which reports it with its seed.)
+/// sees the goal with its camera or runs `occlusion` (the warnings that need the world: camera
+/// range, object reach). (A world that cannot be built is left to the run, which reports it
+/// with its seed.)
 pub(crate) fn warnings_before_run(sc: &Scenario) -> Vec<String> {
-    let camera = (0..sc.spec.robots.len()).any(|g| goal_camera_params(sc, g).is_some());
-    match camera.then(|| Run::new(sc, &RunOptions::default())) {
+    let needs_world = (0..sc.spec.robots.len()).any(|g| {
+        goal_camera_params(sc, g).is_some()
+            || sc.spec.robots[g].get_ref().controller.get_ref() == "occlusion"
+    });
+    match needs_world.then(|| Run::new(sc, &RunOptions::default())) {
         Some(Ok(run)) => run_warnings(sc, &run.world),
         _ => (0..sc.spec.robots.len())
             .flat_map(|g| {

@@ -331,26 +331,32 @@ fn a_closed_stdout_neither_panics_nor_loses_the_out_files() {
 }
 
 #[test]
-fn check_warns_when_occlusion_cannot_reach_round_the_object() {
+fn check_and_run_warn_when_occlusion_cannot_reach_round_the_object() {
     // The U's radius is 0.62 m: `occlusion`'s default object_reach (0.6 m) is too short, as
-    // its documentation's rule (radius + 0.2 m) says; 0.85 m is enough.
+    // its documentation's rule (radius + 0.2 m) says; 0.85 m is enough. `run` warns too.
     let u = std::fs::read_to_string(repo("scenarios/fill-transport-u.toml")).unwrap();
     let dir = tmp("reach");
-    let check = |params: &str| {
-        let text = u.replace(
+    let text = |params: &str| {
+        u.replace(
             "controller = \"fill-transport\"",
             &format!("controller = \"occlusion\"\nparams = {{ {params} }}"),
-        );
-        check_text(&dir, &text)
+        )
     };
-    let short = check("");
+    let warning = "warning: object_reach is 0.6 m but the object's radius is 0.62 m";
+    let short = check_text(&dir, &text(""));
     assert!(
-        short.contains("warning: object_reach is 0.6 m but the object's radius is 0.62 m")
-            && short.contains("at least 0.82"),
+        short.contains(warning) && short.contains("at least 0.82"),
         "{short}"
     );
-    let enough = check("object_reach = 0.85");
+    let enough = check_text(&dir, &text("object_reach = 0.85"));
     assert!(!enough.contains("warning"), "{enough}");
+    let run_short = run_briefly_stderr(&dir.join("short.toml"), &text(""));
+    assert!(
+        run_short.contains(&warning["warning: ".len()..]),
+        "{run_short}"
+    );
+    let run_enough = run_briefly_stderr(&dir.join("enough.toml"), &text("object_reach = 0.85"));
+    assert!(!run_enough.contains("warning"), "{run_enough}");
 }
 
 #[test]

@@ -176,7 +176,9 @@ pub struct Params {
     /// Beacon perception: within this distance of the object's centre (m), proximity hits on
     /// the side facing the centre are taken to be the object; farther out every hit is an
     /// obstacle, and a circling robot counts as lost and approaches again. Should exceed the
-    /// object's largest radius plus about 0.2 m. Default 0.6.
+    /// object's largest radius plus about 0.2 m (`formica check` and `run` warn otherwise):
+    /// on seed-transport with a 0.9 m box (radius 0.64 m), the median time over seeds 1-20 is
+    /// 294 s with the default and 74 s with 0.85, every trial a success. Default 0.6.
     pub object_reach: f32,
     /// Largest angle (deg) between the goal's direction (triangulated from the bearings seen
     /// so far) and the object's direction for a hidden goal to count as hidden *by the object*
