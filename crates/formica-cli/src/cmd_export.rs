@@ -72,10 +72,10 @@ pub fn export_columns(store: &Store) -> Result<Vec<String>, CliError> {
     Ok(cols)
 }
 
-/// Runs the command.
-pub fn main(a: Args) -> Result<(), CliError> {
-    let store = Store::open_existing(&a.db)?;
-    let cols = export_columns(&store)?;
+/// Writes every trial of `store` as CSV to `out` (the columns of [`export_columns`], one row
+/// per trial in trial order); returns the number of trials written.
+pub fn write_trials(store: &Store, out: &mut dyn Write) -> Result<usize, CliError> {
+    let cols = export_columns(store)?;
     let sel: Vec<String> = cols.iter().map(|c| ident(c)).collect();
     let mut st = store
         .conn
@@ -84,7 +84,6 @@ pub fn main(a: Args) -> Result<(), CliError> {
             sel.join(", ")
         ))
         .context("reading trials")?;
-    let mut out = open_out(&a.csv)?;
     let header: Vec<String> = cols.iter().map(|c| csv_field(c)).collect();
     writeln!(out, "{}", header.join(",")).context("writing CSV")?;
     let mut rows = st.query([]).context("reading trials")?;
@@ -99,6 +98,13 @@ pub fn main(a: Args) -> Result<(), CliError> {
         n += 1;
     }
     out.flush().context("writing CSV")?;
+    Ok(n)
+}
+
+/// Runs the command.
+pub fn main(a: Args) -> Result<(), CliError> {
+    let store = Store::open_existing(&a.db)?;
+    let n = write_trials(&store, &mut open_out(&a.csv)?)?;
     if let Some(tp) = &a.trajectories {
         let mut out = open_out(tp)?;
         writeln!(out, "params,seed,t,x,y,theta").context("writing CSV")?;

@@ -12,7 +12,8 @@
 //!   (`RunResult::extra`), with a 95 % interval;
 //! - `summary.md`: one table row per parameter set (end-of-run fields: their means), the
 //!   provenance of the store, and the failed trials of each parameter set with the command that
-//!   replays each and a gallery of pictures of how the first ones ended (`failures/trial-N.png`).
+//!   replays each and a gallery of pictures of how the first ones ended (`failures/trial-N.png`);
+//! - `trials.csv`: every trial, one row each, as `formica export` writes it.
 
 use crate::plots::{self, CategoryPlot, Estimate, LinePlot};
 use crate::stats::{censored_median, wilson95};
@@ -29,7 +30,7 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     /// Result store (SQLite) written by `formica sweep` or `formica merge`.
     pub db: PathBuf,
-    /// Folder for the plots and `summary.md`.
+    /// Folder for the plots, `summary.md` and `trials.csv`.
     #[arg(long)]
     pub out: PathBuf,
     /// At most this many trajectories in the overlay.
@@ -715,6 +716,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
         100.0 * lo,
         100.0 * hi
     );
+    let _ = writeln!(
+        md,
+        "Every trial, one row each: [trials.csv](trials.csv) (the columns of `formica export`).\n"
+    );
     let fill = rows.iter().any(|r| r.result.convexity_after.is_some());
     let mut head: Vec<String> = keys.iter().map(|k| format!("`{k}`")).collect();
     head.extend(
@@ -829,8 +834,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
         &a.options(),
     )?);
     std::fs::write(dir.join("summary.md"), md).context("writing summary.md")?;
+    let csv = dir.join("trials.csv");
+    let file =
+        std::fs::File::create(&csv).with_context(|| format!("creating {}", csv.display()))?;
+    crate::cmd_export::write_trials(&store, &mut std::io::BufWriter::new(file))?;
     outln!(
-        "wrote {} figures (PNG and SVG) and summary.md to {}",
+        "wrote {} figures (PNG and SVG), summary.md and trials.csv to {}",
         figures.len(),
         dir.display()
     );

@@ -196,6 +196,17 @@ fn thread_count_and_shards_do_not_change_results() {
     }
     let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
     assert!(md.contains("| occlusion | 6 | 4 |"), "{md}");
+    // Every trial, as `formica export` writes it, beside the summary that links it.
+    assert!(md.contains("[trials.csv](trials.csv)"), "{md}");
+    let csv = std::fs::read_to_string(out_dir.join("trials.csv")).unwrap();
+    let export = ok(formica()
+        .arg("export")
+        .arg(&merged)
+        .args(["--csv", "-"])
+        .output()
+        .unwrap());
+    assert_eq!(csv, String::from_utf8(export.stdout).unwrap());
+    assert_eq!(csv.lines().count(), 1 + count(&merged));
 }
 
 /// A sweep file like [`write_sweep`]'s, with `fixed` added to `[set]` and the listed `vary` lines.
