@@ -168,8 +168,8 @@ fn object_radius(w: &World, i: usize) -> f32 {
 }
 
 /// For an `occlusion` group with beacon perception: a warning if its `object_reach` is shorter
-/// than the target object's radius plus 0.2 m, the controller's documented rule (pushers near
-/// the object's ends would take it for an obstacle).
+/// than the target object's radius plus 0.2 m (by more than a centimetre), the controller's
+/// documented rule (pushers near the object's ends would take it for an obstacle).
 fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
     use formica::controllers::occlusion::{Params, Perception};
     if w.groups[g].controller != "occlusion" {
@@ -179,7 +179,9 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
         formica::controller::parse_params_with_defaults(group_params(sc, g).as_ref()).ok()?;
     let t = w.target?;
     let radius = object_radius(w, t);
-    if p.perception != Perception::Beacon || p.object_reach >= radius + 0.2 {
+    // Within a centimetre: the advice is printed to the centimetre, and a reach set to it (or
+    // to radius + 0.2 computed in decimal) must not be warned about again.
+    if p.perception != Perception::Beacon || p.object_reach + 0.01 >= radius + 0.2 {
         return None;
     }
     Some(format!(

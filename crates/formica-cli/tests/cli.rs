@@ -350,6 +350,9 @@ fn check_and_run_warn_when_occlusion_cannot_reach_round_the_object() {
     );
     let enough = check_text(&dir, &text("object_reach = 0.85"));
     assert!(!enough.contains("warning"), "{enough}");
+    // The advice itself, printed to the centimetre, is enough.
+    let advised = check_text(&dir, &text("object_reach = 0.82"));
+    assert!(!advised.contains("warning"), "{advised}");
     let run_short = run_briefly_stderr(&dir.join("short.toml"), &text(""));
     assert!(
         run_short.contains(&warning["warning: ".len()..]),
