@@ -85,7 +85,11 @@ pub fn provenance_section(
         }
         md.push('\n');
     }
-    if let Some(d) = store.meta("scenario_sha256")? {
+    let digest = match store.trials_scenarios_sha256()? {
+        Some(d) => Some(d),
+        None => store.meta("scenario_sha256")?,
+    };
+    if let Some(d) = digest {
         let _ = writeln!(
             md,
             "Scenarios: SHA-256 `{}` over the canonical scenario of every parameter set (each trial's own is in the `scenario_sha256` column).\n",

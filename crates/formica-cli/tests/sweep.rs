@@ -534,3 +534,37 @@ fn the_obstacle_designs_slices_run_its_cases_its_seeds_and_its_grid() {
     }
     assert_eq!(slices, 7, "the design's seven slices");
 }
+
+#[test]
+fn a_report_digests_the_scenarios_of_a_sweep_that_gained_parameter_sets() {
+    // A store begun with one swarm size and resumed after the sweep file gained another: its
+    // report's scenario digest is the one a fresh store of the grown sweep gets, not the first.
+    let dir = tmp("grown");
+    let digest = |db: &Path, out: &str| {
+        let out_dir = dir.join(out);
+        ok(formica()
+            .arg("report")
+            .arg(db)
+            .arg("--out")
+            .arg(&out_dir)
+            .args(["--gallery", "0"])
+            .output()
+            .unwrap());
+        let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+        md.lines()
+            .find(|l| l.starts_with("Scenarios: SHA-256"))
+            .unwrap_or_else(|| panic!("{md}"))
+            .to_string()
+    };
+    let small = write_slice(&dir, "grown", "1..1", "", r#""robots.0.count" = [6]"#);
+    let grown_db = dir.join("grown.db");
+    ok(sweep(&small, &grown_db, &[]));
+    let before = digest(&grown_db, "before");
+    let grown = write_slice(&dir, "grown", "1..1", "", r#""robots.0.count" = [6, 8]"#);
+    ok(sweep(&grown, &grown_db, &[]));
+    let fresh_db = dir.join("fresh.db");
+    ok(sweep(&grown, &fresh_db, &[]));
+    let fresh = digest(&fresh_db, "fresh");
+    assert_eq!(digest(&grown_db, "after"), fresh);
+    assert_ne!(before, fresh);
+}
