@@ -39,6 +39,19 @@ duration_s = 200
     p
 }
 
+/// `formica report DB --out DIR --gallery 0`; returns its `summary.md`.
+fn report_without_gallery(db: &Path, out_dir: &Path) -> String {
+    ok(formica()
+        .arg("report")
+        .arg(db)
+        .arg("--out")
+        .arg(out_dir)
+        .args(["--gallery", "0"])
+        .output()
+        .unwrap());
+    std::fs::read_to_string(out_dir.join("summary.md")).unwrap()
+}
+
 fn sweep(file: &Path, db: &Path, extra: &[&str]) -> Output {
     formica()
         .arg("sweep")
@@ -340,15 +353,7 @@ label = "walk"
     let db = dir.join("cases.db");
     ok(sweep(&file, &db, &[]));
     let out_dir = dir.join("report");
-    ok(formica()
-        .arg("report")
-        .arg(&db)
-        .arg("--out")
-        .arg(&out_dir)
-        .args(["--gallery", "0"])
-        .output()
-        .unwrap());
-    let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+    let md = report_without_gallery(&db, &out_dir);
     // By controller, "chen" and "spread" would be one curve.
     assert!(md.contains("survival curves, by label"), "{md}");
     let svg = std::fs::read_to_string(out_dir.join("survival.svg")).unwrap();
@@ -541,16 +546,7 @@ fn a_report_digests_the_scenarios_of_a_sweep_that_gained_parameter_sets() {
     // report's scenario digest is the one a fresh store of the grown sweep gets, not the first.
     let dir = tmp("grown");
     let digest = |db: &Path, out: &str| {
-        let out_dir = dir.join(out);
-        ok(formica()
-            .arg("report")
-            .arg(db)
-            .arg("--out")
-            .arg(&out_dir)
-            .args(["--gallery", "0"])
-            .output()
-            .unwrap());
-        let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
+        let md = report_without_gallery(db, &dir.join(out));
         md.lines()
             .find(|l| l.starts_with("Scenarios: SHA-256"))
             .unwrap_or_else(|| panic!("{md}"))
