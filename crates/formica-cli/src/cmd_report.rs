@@ -829,6 +829,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     )?);
     md.push_str(&crate::gallery::provenance_section(
         &store,
+        &rows,
         &a.db,
         &a.out,
         &a.options(),

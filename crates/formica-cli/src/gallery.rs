@@ -41,10 +41,28 @@ fn shown_path_from(p: &str, cwd: Option<&Path>) -> String {
         .map_or_else(|| p.to_string(), |n| n.to_string_lossy().into_owned())
 }
 
+/// The digest of the scenarios of `rows` (a store's trials in trial order): SHA-256 over each
+/// parameter set's `scenario_sha256`, one line each, in the order of the sets' first trials.
+/// For a store that holds every set of its sweep this is the digest `formica sweep` records;
+/// unlike that record, it follows a sweep file that gained parameter sets after the store was
+/// begun. `None` if no trial records its scenario (a store from before provenance).
+fn scenarios_digest(rows: &[StoredTrial]) -> Option<String> {
+    let mut seen = std::collections::HashSet::new();
+    let shas: Vec<&str> = rows
+        .iter()
+        .filter(|r| seen.insert(r.params_json.as_str()))
+        .map(|r| r.provenance.scenario_sha256.as_str())
+        .collect();
+    shas.iter()
+        .any(|s| !s.is_empty())
+        .then(|| crate::provenance::sha256_hex(shas.join("\n").as_bytes()))
+}
+
 /// The `## Provenance` section of the report written to `out` with `options` (the report's
-/// options that are not their defaults, as typed).
+/// options that are not their defaults, as typed), for the store's trials `rows`.
 pub fn provenance_section(
     store: &Store,
+    rows: &[StoredTrial],
     db: &Path,
     out: &Path,
     options: &str,
@@ -85,7 +103,7 @@ pub fn provenance_section(
         }
         md.push('\n');
     }
-    let digest = match store.trials_scenarios_sha256()? {
+    let digest = match scenarios_digest(rows) {
         Some(d) => Some(d),
         None => store.meta("scenario_sha256")?,
     };

@@ -214,32 +214,6 @@ impl Store {
             .context("reading meta")?)
     }
 
-    /// The digest of the scenarios of the trials held: SHA-256 over each parameter set's
-    /// `scenario_sha256`, one line each, in the order of the sets' first trials. For a store
-    /// that holds every set of its sweep this is the digest `formica sweep` records; unlike
-    /// that record, it follows a sweep file that gained parameter sets after the store was
-    /// begun. `None` for a store without trials.
-    pub fn trials_scenarios_sha256(&self) -> Result<Option<String>, CliError> {
-        if !self.columns()?.iter().any(|c| c == "scenario_sha256") {
-            return Ok(None); // a store from before provenance was recorded
-        }
-        let mut st = self
-            .conn
-            .prepare("SELECT params, scenario_sha256 FROM trials ORDER BY trial, seed")
-            .context("reading trials")?;
-        let mut rows = st.query([]).context("reading trials")?;
-        let mut seen = HashSet::new();
-        let mut shas: Vec<String> = Vec::new();
-        while let Some(r) = rows.next().context("reading trials")? {
-            let params: String = r.get(0).context("reading params")?;
-            let sha: Option<String> = r.get(1).context("reading scenario_sha256")?;
-            if seen.insert(params) {
-                shas.push(sha.unwrap_or_default());
-            }
-        }
-        Ok((!shas.is_empty()).then(|| crate::provenance::sha256_hex(shas.join("\n").as_bytes())))
-    }
-
     /// Sets a meta value.
     pub fn set_meta(&self, key: &str, value: &str) -> Result<(), CliError> {
         self.conn
