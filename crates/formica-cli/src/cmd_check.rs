@@ -93,16 +93,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         if let Some(warning) = formica::world::sensor_warning(grp) {
             outln!("    warning: {warning}");
         }
-        if let Some(warning) = reach_warning(&sc, w, g) {
-            outln!("    warning: {warning}");
-        }
-        if let Some(warning) = goal_color_warning(&sc, g) {
-            outln!("    warning: {warning}");
-        }
-        if let Some(warning) = no_goal_warning(&sc, g) {
-            outln!("    warning: {warning}");
-        }
-        if let Some(warning) = camera_range_warning(&sc, w, g) {
+        for warning in group_warnings(&sc, w, g) {
             outln!("    warning: {warning}");
         }
     }
@@ -212,14 +203,22 @@ fn goal_reached_warning(w: &World, radius: f32) -> Option<String> {
 /// no light shows, or cannot see the object and a goal at once).
 pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
     (0..sc.spec.robots.len())
-        .flat_map(|g| {
-            goal_color_warning(sc, g)
-                .into_iter()
-                .chain(no_goal_warning(sc, g))
-                .chain(camera_range_warning(sc, w, g))
-                .chain(reach_warning(sc, w, g))
-        })
+        .flat_map(|g| group_warnings(sc, w, g))
         .collect()
+}
+
+/// The warnings about robot group `g` that `check` prints under the group and `run` and
+/// `sweep` print before they run.
+fn group_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
+    [
+        reach_warning(sc, w, g),
+        goal_color_warning(sc, g),
+        no_goal_warning(sc, g),
+        camera_range_warning(sc, w, g),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
 }
 
 /// [`run_warnings`] for a scenario whose world is not built yet: builds one only if a group
