@@ -1,40 +1,13 @@
-//! `formica schema`: the JSON Schemas validate every shipped file and reject unknown keys
-//! (checked with a JSON Schema validator), the schema's keys are exactly the keys the parsers
-//! accept, and the committed scenario reference is the one the schema generates.
+//! `formica schema`: the schema's keys are exactly the keys the parsers accept, and the committed
+//! schemas and scenario reference are the ones the code generates. (That the schemas validate
+//! every shipped file and reject unknown keys, checked with the reference JSON Schema validator,
+//! is in the Python suite: python/tests/test_schema.py.)
 
 mod common;
 use common::{formica, repo};
 use formica_cli::schema::{self, Key};
 use serde_json::Value;
 use std::collections::BTreeSet;
-use std::path::PathBuf;
-
-fn toml_files(dir: &str) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(repo(dir))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    v.sort();
-    assert!(!v.is_empty(), "no TOML files in {dir}");
-    v
-}
-
-/// A TOML document as the JSON value a JSON Schema validator checks (what editors do).
-fn as_json(text: &str) -> Value {
-    let t: toml::Table = toml::from_str(text).unwrap();
-    serde_json::to_value(t).unwrap()
-}
-
-fn validator(schema: &Value) -> jsonschema::Validator {
-    jsonschema::draft7::new(schema).expect("the schema is a valid draft-7 schema")
-}
-
-fn errors(v: &jsonschema::Validator, doc: &Value) -> Vec<String> {
-    v.iter_errors(doc)
-        .map(|e| format!("{}: {e}", e.instance_path()))
-        .collect()
-}
 
 #[test]
 fn the_command_prints_both_schemas_and_the_reference() {
@@ -52,62 +25,6 @@ fn the_command_prints_both_schemas_and_the_reference() {
             let _: Value = serde_json::from_str(&text).expect("JSON");
         }
     }
-}
-
-#[test]
-fn the_scenario_schema_validates_every_shipped_scenario() {
-    let v = validator(&schema::scenario_schema());
-    let mut files = toml_files("scenarios");
-    files.extend(toml_files("examples/custom-controller/scenarios"));
-    for path in files {
-        let doc = as_json(&std::fs::read_to_string(&path).unwrap());
-        let e = errors(&v, &doc);
-        assert!(e.is_empty(), "{}: {e:#?}", path.display());
-    }
-}
-
-#[test]
-fn the_sweep_schema_validates_every_shipped_experiment() {
-    let v = validator(&schema::sweep_schema());
-    let mut files = toml_files("experiments");
-    files.push(repo("examples/custom-controller/sweep.toml"));
-    for path in files {
-        let doc = as_json(&std::fs::read_to_string(&path).unwrap());
-        let e = errors(&v, &doc);
-        assert!(e.is_empty(), "{}: {e:#?}", path.display());
-    }
-}
-
-#[test]
-fn the_schemas_reject_unknown_keys_and_values_out_of_range() {
-    let sc = validator(&schema::scenario_schema());
-    let base = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
-    assert!(errors(&sc, &as_json(&base)).is_empty());
-    for (what, text) in [
-        ("unknown top-level key", format!("colour = \"red\"\n{base}")),
-        (
-            "unknown key in [run]",
-            base.replace("[run]", "[run]\nticks_hz = 10"),
-        ),
-        (
-            "a typo in a robot group",
-            base.replace("[[robots]]", "[[robots]]\ncontroler = \"occlusion\""),
-        ),
-        (
-            "tick rate out of range",
-            base.replace("tick_hz = 10", "tick_hz = 0.5"),
-        ),
-    ] {
-        let doc = as_json(&text);
-        assert!(!errors(&sc, &doc).is_empty(), "{what}: accepted");
-        // The parser refuses it too.
-        assert!(formica::Scenario::parse(&text, "t.toml").is_err(), "{what}");
-    }
-    let sw = validator(&schema::sweep_schema());
-    let base = std::fs::read_to_string(repo("experiments/smoke.toml")).unwrap();
-    assert!(errors(&sw, &as_json(&base)).is_empty());
-    let doc = as_json(&format!("seed = \"1..3\"\n{base}"));
-    assert!(!errors(&sw, &doc).is_empty(), "unknown sweep key accepted");
 }
 
 /// The key that every table of the test documents gets, which no file may have.
