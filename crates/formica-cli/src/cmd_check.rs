@@ -93,7 +93,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         if let Some(warning) = formica::world::sensor_warning(grp) {
             outln!("    warning: {warning}");
         }
-        for warning in group_warnings(&sc, w, g) {
+        for warning in group_warnings(&sc, Some(w), g) {
             outln!("    warning: {warning}");
         }
     }
@@ -203,18 +203,18 @@ fn goal_reached_warning(w: &World, radius: f32) -> Option<String> {
 /// no light shows, or cannot see the object and a goal at once).
 pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
     (0..sc.spec.robots.len())
-        .flat_map(|g| group_warnings(sc, w, g))
+        .flat_map(|g| group_warnings(sc, Some(w), g))
         .collect()
 }
 
 /// The warnings about robot group `g` that `check` prints under the group and `run` and
-/// `sweep` print before they run.
-fn group_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
+/// `sweep` print before they run. Without a world, only those that need none.
+fn group_warnings(sc: &Scenario, w: Option<&World>, g: usize) -> Vec<String> {
     [
-        reach_warning(sc, w, g),
+        w.and_then(|w| reach_warning(sc, w, g)),
         goal_color_warning(sc, g),
         no_goal_warning(sc, g),
-        camera_range_warning(sc, w, g),
+        w.and_then(|w| camera_range_warning(sc, w, g)),
     ]
     .into_iter()
     .flatten()
@@ -224,22 +224,18 @@ fn group_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
 /// [`run_warnings`] for a scenario whose world is not built yet: builds one only if a group
 /// sees the goal with its camera or runs `occlusion` (the warnings that need the world: camera
 /// range, object reach). (A world that cannot be built is left to the run, which reports it
-/// with its seed.)
+/// with its seed; the warnings that need no world are given all the same.)
 pub(crate) fn warnings_before_run(sc: &Scenario) -> Vec<String> {
     let needs_world = (0..sc.spec.robots.len()).any(|g| {
         goal_camera_params(sc, g).is_some()
             || sc.spec.robots[g].get_ref().controller.get_ref() == "occlusion"
     });
-    match needs_world.then(|| Run::new(sc, &RunOptions::default())) {
-        Some(Ok(run)) => run_warnings(sc, &run.world),
-        _ => (0..sc.spec.robots.len())
-            .flat_map(|g| {
-                goal_color_warning(sc, g)
-                    .into_iter()
-                    .chain(no_goal_warning(sc, g))
-            })
-            .collect(),
-    }
+    let run = needs_world
+        .then(|| Run::new(sc, &RunOptions::default()).ok())
+        .flatten();
+    (0..sc.spec.robots.len())
+        .flat_map(|g| group_warnings(sc, run.as_ref().map(|r| &r.world), g))
+        .collect()
 }
 
 /// For a group running a transport controller (`occlusion`, `fill-transport`): a warning if

@@ -363,6 +363,32 @@ fn check_and_run_warn_when_occlusion_cannot_reach_round_the_object() {
 }
 
 #[test]
+fn run_gives_the_warnings_that_need_no_world_when_its_world_cannot_be_built() {
+    // No goal light, and more robots than the start region holds: the run fails to place them
+    // (exit 2, the file's line), after warning that no trial could succeed anyway.
+    let text = std::fs::read_to_string(repo("scenarios/seed-transport.toml"))
+        .unwrap()
+        .replace("goal = true", "goal = false")
+        .replace("count = 20", "count = 5000")
+        .replace(
+            "min = [-2.0, -2.0], max = [2.0, 2.0]",
+            "min = [-0.5, -0.5], max = [0.5, 0.5]",
+        );
+    let dir = tmp("warn-unbuilt");
+    let file = dir.join("crowded.toml");
+    std::fs::write(&file, text).unwrap();
+    let out = formica()
+        .args(["run", "--duration", "1"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("no light is the goal"), "{stderr}");
+    assert!(stderr.contains("no free spot for robot"), "{stderr}");
+}
+
+#[test]
 fn check_warns_when_the_object_starts_at_the_goal() {
     // seed-transport's box starts 3.5 m from the goal light; with the light moved onto the
     // box every run would succeed on its first tick, and check says so.
