@@ -515,6 +515,21 @@ impl parry::query::PersistentQueryDispatcher<ContactManifoldData, ContactData>
     }
 }
 
+/// A joint of a body to the ground with velocity motors along x, y and about the vertical,
+/// unpowered (no force) until a step sets their targets and force limits: an object's floor
+/// friction, a robot's wheels.
+fn ground_motors(joint: GenericJointBuilder) -> GenericJoint {
+    joint
+        .contacts_enabled(false)
+        .motor_velocity(JointAxis::LinX, 0.0, MOTOR_DAMPING)
+        .motor_velocity(JointAxis::LinY, 0.0, MOTOR_DAMPING)
+        .motor_velocity(JointAxis::AngX, 0.0, MOTOR_DAMPING)
+        .motor_max_force(JointAxis::LinX, 0.0)
+        .motor_max_force(JointAxis::LinY, 0.0)
+        .motor_max_force(JointAxis::AngX, 0.0)
+        .build()
+}
+
 /// A joint frame at `origin` whose x axis is the unit vector `axis`.
 fn frame(origin: Vec2, axis: Vec2) -> rapier2d::math::Pose {
     rapier2d::math::Pose::from_parts(origin, Rotation::from_cos_sin_unchecked(axis.x, axis.y))
@@ -677,17 +692,11 @@ impl Physics {
             aabb.maxs,
             floor_mu * mass * GRAVITY,
         );
-        let joint = GenericJointBuilder::new(JointAxesMask::empty())
-            .local_anchor1(Vec2::ZERO)
-            .local_anchor2(com)
-            .contacts_enabled(false)
-            .motor_velocity(JointAxis::LinX, 0.0, MOTOR_DAMPING)
-            .motor_velocity(JointAxis::LinY, 0.0, MOTOR_DAMPING)
-            .motor_velocity(JointAxis::AngX, 0.0, MOTOR_DAMPING)
-            .motor_max_force(JointAxis::LinX, 0.0)
-            .motor_max_force(JointAxis::LinY, 0.0)
-            .motor_max_force(JointAxis::AngX, 0.0)
-            .build();
+        let joint = ground_motors(
+            GenericJointBuilder::new(JointAxesMask::empty())
+                .local_anchor1(Vec2::ZERO)
+                .local_anchor2(com),
+        );
         let joint = self
             .world
             .impulse_joints
@@ -733,16 +742,10 @@ impl Physics {
         );
         let heading = self.world.bodies[body].rotation();
         let axis = Vec2::new(heading.cos(), heading.sin());
-        let joint = GenericJointBuilder::new(JointAxesMask::empty())
-            .local_frame1(frame(pose.position(), axis))
-            .contacts_enabled(false)
-            .motor_velocity(JointAxis::LinX, 0.0, MOTOR_DAMPING)
-            .motor_velocity(JointAxis::LinY, 0.0, MOTOR_DAMPING)
-            .motor_velocity(JointAxis::AngX, 0.0, MOTOR_DAMPING)
-            .motor_max_force(JointAxis::LinX, 0.0)
-            .motor_max_force(JointAxis::LinY, 0.0)
-            .motor_max_force(JointAxis::AngX, 0.0)
-            .build();
+        let joint = ground_motors(
+            GenericJointBuilder::new(JointAxesMask::empty())
+                .local_frame1(frame(pose.position(), axis)),
+        );
         let joint = self
             .world
             .impulse_joints
