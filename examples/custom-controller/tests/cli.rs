@@ -3,7 +3,7 @@
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::PathBuf;
-use std::process::{Command, Output, Stdio};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::Duration;
 
 fn bin() -> Command {
@@ -324,11 +324,10 @@ fn http(authority: &str, method: &str, path: &str) -> Result<String, String> {
     }
 }
 
-#[test]
-fn serve_shows_the_custom_controller_on_loopback() {
-    let mut child = bin()
-        .args(["serve", "--port", "0"])
-        .arg(here("scenarios/phototaxis.toml"))
+/// Starts `formica serve` (`cmd`) and reads the address (`127.0.0.1:PORT`) from the first line
+/// it prints.
+fn serve(mut cmd: Command) -> (Child, Result<String, String>) {
+    let mut child = cmd
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -337,12 +336,27 @@ fn serve_shows_the_custom_controller_on_loopback() {
     if let Some(out) = child.stdout.take() {
         let _ = BufReader::new(out).read_line(&mut line);
     }
+    let address = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .map(|url| {
+            url.trim_start_matches("http://")
+                .trim_end_matches('/')
+                .to_string()
+        })
+        .ok_or_else(|| format!("no address in `{line}`"));
+    (child, address)
+}
+
+#[test]
+fn serve_shows_the_custom_controller_on_loopback() {
+    let mut cmd = bin();
+    cmd.args(["serve", "--port", "0"])
+        .arg(here("scenarios/phototaxis.toml"));
+    let (mut child, address) = serve(cmd);
     let result = (|| {
-        let url = line
-            .split_whitespace()
-            .find(|w| w.starts_with("http://"))
-            .ok_or_else(|| format!("no address in `{line}`"))?;
-        let authority = url.trim_start_matches("http://").trim_end_matches('/');
+        let authority = address?;
+        let authority = authority.as_str();
         if !authority.starts_with("127.0.0.1:") {
             return Err(format!("listening on {authority}, not loopback"));
         }
@@ -481,23 +495,13 @@ fn stored_trials_replay_with_their_end_of_run_fields_and_carry_provenance() {
 #[test]
 fn serve_replays_a_stored_trial_and_checks_it_against_the_store() {
     let (dir, db) = swept("serve-replay");
-    let mut child = bin()
-        .args(["serve", "--port", "0", "--trial", "2", "--db"])
-        .arg(&db)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("starts");
-    let mut line = String::new();
-    if let Some(out) = child.stdout.take() {
-        let _ = BufReader::new(out).read_line(&mut line);
-    }
+    let mut cmd = bin();
+    cmd.args(["serve", "--port", "0", "--trial", "2", "--db"])
+        .arg(&db);
+    let (mut child, address) = serve(cmd);
     let result = (|| {
-        let url = line
-            .split_whitespace()
-            .find(|w| w.starts_with("http://"))
-            .ok_or_else(|| format!("no address in `{line}`"))?;
-        let authority = url.trim_start_matches("http://").trim_end_matches('/');
+        let authority = address?;
+        let authority = authority.as_str();
         let scene = http(authority, "GET", "/api/scene")?;
         if !scene.contains("trial 2 of speed.db") {
             return Err(format!("not the replay: {scene:.400}"));
