@@ -4,7 +4,6 @@ range are rejected, by the schema and by the parser alike. (The Rust tests check
 schemas' keys are exactly the keys the parsers accept; crates/formica-cli/tests/schema.rs.)"""
 
 import json
-import pathlib
 import subprocess
 import tomllib
 
@@ -14,16 +13,26 @@ import pytest
 from conftest import ROOT
 
 
-def schema(formica_bin, *which):
+def validator(formica_bin, *which):
     out = subprocess.run([formica_bin, "schema", *which], check=True, capture_output=True, text=True)
     s = json.loads(out.stdout)
     jsonschema.Draft7Validator.check_schema(s)
     return jsonschema.Draft7Validator(s)
 
 
-def errors(validator, text):
+@pytest.fixture(scope="module")
+def scenario_schema(formica_bin):
+    return validator(formica_bin)
+
+
+@pytest.fixture(scope="module")
+def sweep_schema(formica_bin):
+    return validator(formica_bin, "sweep")
+
+
+def errors(v, text):
     doc = tomllib.loads(text)
-    return [f"{'/'.join(map(str, e.absolute_path))}: {e.message}" for e in validator.iter_errors(doc)]
+    return [f"{'/'.join(map(str, e.absolute_path))}: {e.message}" for e in v.iter_errors(doc)]
 
 
 def toml_files(*dirs):
@@ -32,17 +41,15 @@ def toml_files(*dirs):
     return files
 
 
-def test_the_scenario_schema_validates_every_shipped_scenario(formica_bin):
-    v = schema(formica_bin)
+def test_the_scenario_schema_validates_every_shipped_scenario(scenario_schema):
     for path in toml_files("scenarios", "examples/custom-controller/scenarios"):
-        assert errors(v, path.read_text()) == [], path
+        assert errors(scenario_schema, path.read_text()) == [], path
 
 
-def test_the_sweep_schema_validates_every_shipped_experiment(formica_bin):
-    v = schema(formica_bin, "sweep")
+def test_the_sweep_schema_validates_every_shipped_experiment(sweep_schema):
     files = toml_files("experiments") + [ROOT / "examples/custom-controller/sweep.toml"]
     for path in files:
-        assert errors(v, path.read_text()) == [], path
+        assert errors(sweep_schema, path.read_text()) == [], path
 
 
 BASE = (ROOT / "scenarios/seed-transport.toml").read_text()
@@ -57,10 +64,9 @@ BASE = (ROOT / "scenarios/seed-transport.toml").read_text()
         ("tick rate out of range", BASE.replace("tick_hz = 10", "tick_hz = 0.5")),
     ],
 )
-def test_the_scenario_schema_and_the_parser_reject(formica_bin, tmp_path, what, text):
-    v = schema(formica_bin)
-    assert errors(v, BASE) == []
-    assert errors(v, text), f"{what}: accepted by the schema"
+def test_the_scenario_schema_and_the_parser_reject(formica_bin, scenario_schema, tmp_path, what, text):
+    assert errors(scenario_schema, BASE) == []
+    assert errors(scenario_schema, text), f"{what}: accepted by the schema"
     path = tmp_path / "t.toml"
     path.write_text(text)
     out = subprocess.run([formica_bin, "check", str(path)], capture_output=True, text=True)
@@ -68,8 +74,7 @@ def test_the_scenario_schema_and_the_parser_reject(formica_bin, tmp_path, what, 
     assert "t.toml:" in out.stderr
 
 
-def test_the_sweep_schema_rejects_an_unknown_key(formica_bin):
-    v = schema(formica_bin, "sweep")
-    base = pathlib.Path(ROOT / "experiments/smoke.toml").read_text()
-    assert errors(v, base) == []
-    assert errors(v, 'seed = "1..3"\n' + base), "unknown sweep key accepted"
+def test_the_sweep_schema_rejects_an_unknown_key(sweep_schema):
+    base = (ROOT / "experiments/smoke.toml").read_text()
+    assert errors(sweep_schema, base) == []
+    assert errors(sweep_schema, 'seed = "1..3"\n' + base), "unknown sweep key accepted"

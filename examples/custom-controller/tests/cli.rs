@@ -355,8 +355,7 @@ fn serve_shows_the_custom_controller_on_loopback() {
         .arg(here("scenarios/phototaxis.toml"));
     let (mut child, address) = serve(cmd);
     let result = (|| {
-        let authority = address?;
-        let authority = authority.as_str();
+        let authority = &address?;
         if !authority.starts_with("127.0.0.1:") {
             return Err(format!("listening on {authority}, not loopback"));
         }
@@ -500,8 +499,7 @@ fn serve_replays_a_stored_trial_and_checks_it_against_the_store() {
         .arg(&db);
     let (mut child, address) = serve(cmd);
     let result = (|| {
-        let authority = address?;
-        let authority = authority.as_str();
+        let authority = &address?;
         let scene = http(authority, "GET", "/api/scene")?;
         if !scene.contains("trial 2 of speed.db") {
             return Err(format!("not the replay: {scene:.400}"));
