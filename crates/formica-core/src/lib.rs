@@ -27,6 +27,7 @@ pub mod limits;
 pub mod metrics;
 pub mod noise;
 pub mod ops;
+mod parallel;
 pub mod physics;
 pub mod registry;
 pub mod robot;

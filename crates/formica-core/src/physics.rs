@@ -47,6 +47,7 @@
 mod friction;
 
 use crate::geometry::{Pose, Vec2};
+use crate::parallel;
 use crate::robot::RobotModel;
 use friction::{hold_box, Footprint, Twist};
 use rapier2d::math::Rotation;
@@ -151,6 +152,20 @@ struct FloorJoint {
     /// Whether the joint was enabled during the last step.
     active: bool,
 }
+
+/// One object's friction step for the next physics step: its inputs, then its result.
+struct FrictionJob {
+    /// The body's rotation (cos, sin).
+    rot: (f32, f32),
+    /// Its twist now.
+    now: Twist,
+    /// Its twist at the end of the step without friction.
+    free: Twist,
+    step: Option<friction::Step>,
+}
+
+/// Objects handed to a thread at a time when their friction steps run on several threads.
+const OBJECTS_PER_CHUNK: usize = 2;
 
 /// Floor friction of one movable object.
 #[derive(Debug, Clone)]
@@ -1084,25 +1099,47 @@ impl Physics {
     }
 
     /// Sets every movable object's floor-friction joint for the next step (see the module
-    /// documentation).
-    fn set_floor_friction(&mut self) {
+    /// documentation). The objects' friction steps are independent of each other: with a
+    /// `pool` they are solved on its threads and the caller's (the same results on any number).
+    fn set_floor_friction(&mut self, pool: Option<&rayon::ThreadPool>) {
         let h = self.dt();
-        for k in 0..self.friction.len() {
+        // What each object's step starts from, read from the last step.
+        let mut jobs: Vec<FrictionJob> = self
+            .friction
+            .iter()
+            .map(|fr| {
+                let fj = fr.joint;
+                let (wf, wt) = self.applied_wrench(&fj);
+                let b = &self.world.bodies[fj.body];
+                let rot = b.rotation();
+                let now = Twist {
+                    lin: b.linvel(),
+                    ang: b.angvel(),
+                };
+                let free = Twist {
+                    lin: now.lin + wf * (h / fj.mass),
+                    ang: now.ang + wt * (h / fj.inertia),
+                };
+                FrictionJob {
+                    rot: (rot.cos(), rot.sin()),
+                    now,
+                    free,
+                    step: None,
+                }
+            })
+            .collect();
+        let friction = &self.friction;
+        parallel::for_each(pool, &mut jobs, OBJECTS_PER_CHUNK, |k, job| {
+            let (fj, fr) = (friction[k].joint, &friction[k]);
+            job.step = Some(
+                fr.footprint
+                    .step(job.rot, fj.mass, fj.inertia, h, job.free, fr.end),
+            );
+        });
+        for (k, job) in jobs.into_iter().enumerate() {
+            let Some(s) = job.step else { continue };
             let fj = self.friction[k].joint;
-            let (wf, wt) = self.applied_wrench(&fj);
-            let b = &self.world.bodies[fj.body];
-            let rot = b.rotation();
-            let now = Twist {
-                lin: b.linvel(),
-                ang: b.angvel(),
-            };
-            let free = Twist {
-                lin: now.lin + wf * (h / fj.mass),
-                ang: now.ang + wt * (h / fj.inertia),
-            };
-            let fr = &self.friction[k];
-            let fp = &fr.footprint;
-            let s = fp.step((rot.cos(), rot.sin()), fj.mass, fj.inertia, h, free, fr.end);
+            let fp = &self.friction[k].footprint;
             let (axis, motors) = if s.sticks {
                 let axis = direction_or(s.force, fj.axis);
                 let u = [
@@ -1139,7 +1176,7 @@ impl Physics {
             };
             self.friction[k].end = s.end;
             self.friction[k].joint = FloorJoint {
-                pre: now,
+                pre: job.now,
                 axis,
                 active: true,
                 ..fj
@@ -1159,7 +1196,13 @@ impl Physics {
     /// Advances the world by one step, after setting the objects' floor friction for it.
     /// Call [`Physics::drive`] for every robot first.
     pub fn step(&mut self) {
-        self.set_floor_friction();
+        self.step_on(None);
+    }
+
+    /// [`Physics::step`], solving the objects' floor friction on `pool`'s threads too (rapier's
+    /// own step stays on the caller's thread). The result does not depend on the pool.
+    pub fn step_on(&mut self, pool: Option<&rayon::ThreadPool>) {
+        self.set_floor_friction(pool);
         self.index.fresh = false;
         self.world.step();
         let p = &self.world.integration_parameters;

@@ -5,6 +5,7 @@ use crate::controller::{
     Actuation, AttachCommand, BatchController, BatchRobot, Controller, ControllerFactory, RobotRng,
 };
 use crate::geometry::{compound_shape, part_outlines, Part, Pose, Vec2};
+use crate::parallel;
 use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
 use crate::scenario::{
@@ -230,70 +231,8 @@ pub fn threads_for(robots: usize, available: usize) -> usize {
     }
 }
 
-/// Robots handed to a thread at a time by [`for_each_robot`].
+/// Robots handed to a thread at a time when sensing and control run on several threads.
 const ROBOTS_PER_CHUNK: usize = 16;
-
-/// Runs `f` on every robot with its index: on the calling thread, and with a pool on its
-/// threads too. Each call touches only its own robot, so the order (and the number of threads)
-/// does not matter.
-///
-/// The calling thread works alongside the pool's threads, which take chunks of
-/// [`ROBOTS_PER_CHUNK`] robots from a shared queue: a pool thread that wakes late (they sleep
-/// through the physics step) only takes fewer chunks. Handing the whole loop to the pool with
-/// `install` left the caller idle and the work waiting on two wake-ups: two threads ran the
-/// sensing of 1000 robots only 1.2 times as fast as one.
-fn for_each_robot(
-    pool: Option<&rayon::ThreadPool>,
-    robots: &mut [Robot],
-    f: impl Fn(usize, &mut Robot) + Sync + Send,
-) {
-    let mut none = vec![(); workers(pool)];
-    for_each_robot_with(pool, robots, &mut none, |i, r, _| f(i, r));
-}
-
-/// How many workers [`for_each_robot_with`] runs at once: the caller and the pool's threads.
-fn workers(pool: Option<&rayon::ThreadPool>) -> usize {
-    pool.map_or(1, |p| p.current_num_threads() + 1)
-}
-
-/// As [`for_each_robot`], with a working state per worker (`states[k]` for the k-th worker;
-/// at least one state, and one per pool thread and the caller to use them all). What a state
-/// holds between robots must not change any robot's result (scratch space).
-fn for_each_robot_with<S: Send>(
-    pool: Option<&rayon::ThreadPool>,
-    robots: &mut [Robot],
-    states: &mut [S],
-    f: impl Fn(usize, &mut Robot, &mut S) + Sync + Send,
-) {
-    let workers = workers(pool).min(states.len());
-    let (Some(pool), true) = (pool, workers > 1 && robots.len() > ROBOTS_PER_CHUNK) else {
-        let Some(state) = states.first_mut() else {
-            return;
-        };
-        robots
-            .iter_mut()
-            .enumerate()
-            .for_each(|(i, r)| f(i, r, state));
-        return;
-    };
-    let chunks = std::sync::Mutex::new(robots.chunks_mut(ROBOTS_PER_CHUNK).enumerate());
-    let work = |state: &mut S| loop {
-        // A panic in `f` poisons nothing that matters here: the iterator stays valid.
-        let next = chunks.lock().unwrap_or_else(|e| e.into_inner()).next();
-        let Some((c, chunk)) = next else { break };
-        for (k, r) in chunk.iter_mut().enumerate() {
-            f(c * ROBOTS_PER_CHUNK + k, r, state);
-        }
-    };
-    let work = &work;
-    let (mine, theirs) = states[..workers].split_at_mut(1);
-    pool.in_place_scope(|s| {
-        for state in theirs.iter_mut() {
-            s.spawn(move |_| work(state));
-        }
-        work(&mut mine[0]);
-    });
-}
 
 fn splitmix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -565,9 +504,10 @@ impl World {
     }
 
     /// Senses and controls on `threads` threads: the caller's and `threads - 1` of a pool (1:
-    /// on the caller's thread only). Results are
-    /// bit-identical for any number: each robot's readings and decision depend only on the
-    /// shared state and its own generators; the physics stays on the caller's thread.
+    /// on the caller's thread only), and solves the objects' floor friction on them. Results
+    /// are bit-identical for any number: each robot's readings and decision depend only on the
+    /// shared state and its own generators, each object's friction step only on that object;
+    /// rapier's step stays on the caller's thread.
     pub fn set_threads(&mut self, threads: usize) -> Result<(), String> {
         if threads <= 1 {
             self.pool = None;
@@ -588,7 +528,7 @@ impl World {
 
     /// Threads sensing and control run on.
     pub fn threads(&self) -> usize {
-        workers(self.pool.as_deref())
+        parallel::workers(self.pool.as_deref())
     }
 
     /// Chooses this tick's physics steps (fixed, or enough for the fastest body or wheel
@@ -647,7 +587,7 @@ impl World {
                 );
             }
         }
-        self.physics.step();
+        self.physics.step_on(self.pool.as_deref());
     }
 
     /// Applies last tick's decisions that are not wheel speeds: LEDs and attach/detach.
@@ -824,10 +764,11 @@ impl World {
             .collect();
         let time = self.time_s as f32;
         self.scratch
-            .resize_with(workers(self.pool.as_deref()), Scratch::default);
-        for_each_robot_with(
+            .resize_with(parallel::workers(self.pool.as_deref()), Scratch::default);
+        parallel::for_each_with(
             self.pool.as_deref(),
             robots,
+            ROBOTS_PER_CHUNK,
             &mut self.scratch,
             |i, r, scratch| {
                 let Some(body) = r.body else { return };
@@ -854,13 +795,18 @@ impl World {
     fn control(&mut self) {
         let groups = &mut self.groups;
         let batched: Vec<bool> = groups.iter().map(|g| g.batch.is_some()).collect();
-        for_each_robot(self.pool.as_deref(), &mut self.robots, |_, r| {
-            if r.body.is_none() || batched[r.group] {
-                return;
-            }
-            r.action = r.controller.step(&r.readings, &mut r.rng);
-            r.state = r.controller.state();
-        });
+        parallel::for_each(
+            self.pool.as_deref(),
+            &mut self.robots,
+            ROBOTS_PER_CHUNK,
+            |_, r| {
+                if r.body.is_none() || batched[r.group] {
+                    return;
+                }
+                r.action = r.controller.step(&r.readings, &mut r.rng);
+                r.state = r.controller.state();
+            },
+        );
         for (g, group) in groups.iter_mut().enumerate() {
             let Some(batch) = group.batch.as_mut() else {
                 continue;

@@ -27,6 +27,8 @@ const POINTS: usize = 100;
 const CREEP: f64 = 1.0e-6;
 /// A body whose points all move slower than this at the end of the step sticks (m/s).
 const STICK_SPEED: f64 = 1.0e-5;
+/// Points whose square roots and divisions [`Problem::eval`] computes together.
+const LANES: usize = 8;
 /// Newton iterations at most.
 const MAX_ITERATIONS: usize = 40;
 
@@ -147,9 +149,15 @@ impl Footprint {
             };
         }
         let h = f64::from(h);
+        // The points turned into the world frame once: every evaluation below reads them.
+        let (c, s) = (f64::from(rot.0), f64::from(rot.1));
+        let turned: Vec<[f64; 2]> = self
+            .points
+            .iter()
+            .map(|p| [c * p[0] - s * p[1], s * p[0] + c * p[1]])
+            .collect();
         let prob = Problem {
-            pts: &self.points,
-            rot: (f64::from(rot.0), f64::from(rot.1)),
+            pts: &turned,
             share: f64::from(self.f_max) / self.points.len() as f64,
             al: f64::from(m) / h,
             aa: f64::from(i) / h,
@@ -245,10 +253,8 @@ impl Footprint {
 
 /// The step's minimisation problem (see the module documentation).
 struct Problem<'a> {
-    /// Points relative to the centre of mass, body frame.
+    /// Points relative to the centre of mass, turned with the body (world frame).
     pts: &'a [[f64; 2]],
-    /// The body's rotation (cos, sin).
-    rot: (f64, f64),
     /// Load share of a point (N).
     share: f64,
     /// `m / h`.
@@ -262,10 +268,8 @@ struct Problem<'a> {
 impl Problem<'_> {
     fn phi(&self, x: [f64; 3]) -> f64 {
         let e2 = CREEP * CREEP;
-        let (c, s) = self.rot;
         let mut d = 0.0;
-        for p in self.pts {
-            let (px, py) = (c * p[0] - s * p[1], s * p[0] + c * p[1]);
+        for &[px, py] in self.pts {
             let (ux, uy) = (x[0] - x[2] * py, x[1] + x[2] * px);
             d += (ux * ux + uy * uy + e2).sqrt();
         }
@@ -280,27 +284,36 @@ impl Problem<'_> {
     /// Value, gradient and Hessian (xx, xy, xw, yy, yw, ww).
     fn eval(&self, x: [f64; 3]) -> (f64, [f64; 3], [f64; 6]) {
         let e2 = CREEP * CREEP;
-        let (c, s) = self.rot;
         let (mut d, mut g, mut h) = (0.0, [0.0; 3], [0.0; 6]);
-        for p in self.pts {
-            let (px, py) = (c * p[0] - s * p[1], s * p[0] + c * p[1]);
-            let (ux, uy) = (x[0] - x[2] * py, x[1] + x[2] * px);
-            let s = (ux * ux + uy * uy + e2).sqrt();
-            d += s;
-            let inv = 1.0 / s;
-            // d|u|/dxi = J^T u / s with J = [[1, 0, -py], [0, 1, px]].
-            let (gx, gy) = (ux * inv, uy * inv);
-            g[0] += gx;
-            g[1] += gy;
-            g[2] += px * gy - py * gx;
-            // P = (I - u u^T / s^2) / s, then J^T P J.
-            let (pxx, pxy, pyy) = ((1.0 - gx * gx) * inv, -gx * gy * inv, (1.0 - gy * gy) * inv);
-            h[0] += pxx;
-            h[1] += pxy;
-            h[2] += -py * pxx + px * pxy;
-            h[3] += pyy;
-            h[4] += -py * pxy + px * pyy;
-            h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
+        // A few points at a time: their square roots and divisions first (independent of each
+        // other, so the processor overlaps them), then the sums, in the points' order.
+        for block in self.pts.chunks(LANES) {
+            let mut u = [[0.0; 3]; LANES];
+            for (uk, &[px, py]) in u.iter_mut().zip(block) {
+                let (ux, uy) = (x[0] - x[2] * py, x[1] + x[2] * px);
+                *uk = [ux, uy, (ux * ux + uy * uy + e2).sqrt()];
+            }
+            let mut inv = [0.0; LANES];
+            for (ik, uk) in inv.iter_mut().zip(&u) {
+                *ik = 1.0 / uk[2];
+            }
+            for ((&[px, py], &[ux, uy, s]), &inv) in block.iter().zip(&u).zip(&inv) {
+                d += s;
+                // d|u|/dxi = J^T u / s with J = [[1, 0, -py], [0, 1, px]].
+                let (gx, gy) = (ux * inv, uy * inv);
+                g[0] += gx;
+                g[1] += gy;
+                g[2] += px * gy - py * gx;
+                // P = (I - u u^T / s^2) / s, then J^T P J.
+                let (pxx, pxy, pyy) =
+                    ((1.0 - gx * gx) * inv, -gx * gy * inv, (1.0 - gy * gy) * inv);
+                h[0] += pxx;
+                h[1] += pxy;
+                h[2] += -py * pxx + px * pxy;
+                h[3] += pyy;
+                h[4] += -py * pxy + px * pyy;
+                h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
+            }
         }
         let (a, b, c) = (
             x[0] - self.free[0],
