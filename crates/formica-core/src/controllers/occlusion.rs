@@ -71,6 +71,7 @@ use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, PI};
+use std::sync::Arc;
 
 /// How a robot finds the object.
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
@@ -278,10 +279,10 @@ pub fn factory(
 ) -> Result<ControllerFactory, String> {
     let p: Params = parse_params_with_defaults(params)?;
     p.validate()?;
-    let layout = layout.clone();
     let needs = Occlusion::needs(&p);
+    let (p, layout) = (Arc::new(p), Arc::new(layout.clone()));
     Ok(ControllerFactory::new(needs, move || {
-        Box::new(Occlusion::new(p.clone(), &layout))
+        Box::new(Occlusion::shared(p.clone(), layout.clone()))
     }))
 }
 
@@ -387,8 +388,9 @@ struct Surface {
 /// call [`Controller::step`] on it for its pushing phase.
 #[derive(Debug, Clone)]
 pub struct Occlusion {
-    p: Params,
-    layout: SensorLayout,
+    /// Shared by the group's robots until one changes them ([`Occlusion::set_object_reach`]).
+    p: Arc<Params>,
+    layout: Arc<SensorLayout>,
     state: State,
     /// When the current state began (s).
     since_s: f32,
@@ -422,7 +424,7 @@ pub struct Occlusion {
     walk_left_s: f32,
     /// The camera's view of the goal (`goal_sensor = "camera"`), and with `relays = true` the
     /// relay behaviour.
-    relay: Option<Relay>,
+    relay: Option<Box<Relay>>,
     /// Sliding (see `Params::slide_after_s`) until this time (s), turning the push this way
     /// (+1 left, -1 right).
     slide_until: f32,
@@ -538,13 +540,19 @@ impl ObjectMotion {
 impl Occlusion {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> Occlusion {
+        Occlusion::shared(Arc::new(p), Arc::new(layout.clone()))
+    }
+
+    /// [`Occlusion::new`] with parameters and layout shared by every robot of a group (a
+    /// swarm's controllers then hold one copy of them, not one each).
+    pub fn shared(p: Arc<Params>, layout: Arc<SensorLayout>) -> Occlusion {
         let relay = p
             .goal_camera()
-            .then(|| Relay::new(p.relay.clone(), layout, vec![p.object_color]));
+            .then(|| Box::new(Relay::new(p.relay.clone(), &layout, vec![p.object_color])));
         Occlusion {
             relay,
             p,
-            layout: layout.clone(),
+            layout,
             state: State::Approach,
             since_s: 0.0,
             last_s: 0.0,
@@ -577,7 +585,7 @@ impl Occlusion {
 
     /// Changes `object_reach` (m), e.g. to a size the robot measured on its way round.
     pub fn set_object_reach(&mut self, reach: f32) {
-        self.p.object_reach = reach;
+        Arc::make_mut(&mut self.p).object_reach = reach;
     }
 
     /// The way round: `Params::circle_side`, by default the left-hand rule, and the shorter
@@ -626,7 +634,11 @@ impl Occlusion {
         if let Some(relay) = self.relay.take() {
             let mut colors = vec![self.p.object_color, c];
             colors.dedup();
-            self.relay = Some(Relay::new(relay.params().clone(), &self.layout, colors));
+            self.relay = Some(Box::new(Relay::new(
+                relay.params().clone(),
+                &self.layout,
+                colors,
+            )));
         }
     }
 
@@ -1450,6 +1462,24 @@ mod tests {
         assert_eq!(with(false, None), Side::Left);
         assert_eq!(with(true, None), Side::Shortest);
         assert_eq!(with(true, Some(Side::Left)), Side::Left);
+    }
+
+    #[test]
+    fn a_robot_that_changes_its_reach_changes_its_own_only() {
+        let layout = Arc::new(crate::sensors::SensorLayout::of(
+            &RobotModel::khepera4(),
+            &crate::scenario::SensorConfig::default(),
+        ));
+        let p = Arc::new(Params::default());
+        let (mut a, b) = (
+            Occlusion::shared(p.clone(), layout.clone()),
+            Occlusion::shared(p.clone(), layout),
+        );
+        assert!(Arc::ptr_eq(&a.p, &b.p), "a group's robots share their parameters");
+        a.set_object_reach(0.9);
+        assert_eq!(a.object_reach(), 0.9);
+        assert_eq!(b.object_reach(), 0.6);
+        assert_eq!(p.object_reach, 0.6);
     }
 
     #[test]
