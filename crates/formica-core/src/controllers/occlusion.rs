@@ -1475,7 +1475,10 @@ mod tests {
             Occlusion::shared(p.clone(), layout.clone()),
             Occlusion::shared(p.clone(), layout),
         );
-        assert!(Arc::ptr_eq(&a.p, &b.p), "a group's robots share their parameters");
+        assert!(
+            Arc::ptr_eq(&a.p, &b.p),
+            "a group's robots share their parameters"
+        );
         a.set_object_reach(0.9);
         assert_eq!(a.object_reach(), 0.9);
         assert_eq!(b.object_reach(), 0.6);

@@ -293,6 +293,8 @@ impl Problem<'_> {
                 let (ux, uy) = (x[0] - x[2] * py, x[1] + x[2] * px);
                 *uk = [ux, uy, (ux * ux + uy * uy + e2).sqrt()];
             }
+            // All the lanes, so that the loop has a fixed length; past a short last block they
+            // hold zeros, whose inverses are never read.
             let mut inv = [0.0; LANES];
             for (ik, uk) in inv.iter_mut().zip(&u) {
                 *ik = 1.0 / uk[2];
@@ -456,6 +458,77 @@ mod tests {
             (f - s.force).length() < 1e-3 && (t - s.torque).abs() < 1e-3,
             "{s:?} {f:?} {t}"
         );
+    }
+
+    /// [`Problem::eval`] as it was written before it took the points in blocks: one point at a
+    /// time, turning each point on every call.
+    fn eval_point_by_point(prob: &Problem, x: [f64; 3]) -> (f64, [f64; 3], [f64; 6]) {
+        let e2 = CREEP * CREEP;
+        let (mut d, mut g, mut h) = (0.0, [0.0; 3], [0.0; 6]);
+        for &[px, py] in prob.pts {
+            let (ux, uy) = (x[0] - x[2] * py, x[1] + x[2] * px);
+            let s = (ux * ux + uy * uy + e2).sqrt();
+            d += s;
+            let inv = 1.0 / s;
+            let (gx, gy) = (ux * inv, uy * inv);
+            g[0] += gx;
+            g[1] += gy;
+            g[2] += px * gy - py * gx;
+            let (pxx, pxy, pyy) = ((1.0 - gx * gx) * inv, -gx * gy * inv, (1.0 - gy * gy) * inv);
+            h[0] += pxx;
+            h[1] += pxy;
+            h[2] += -py * pxx + px * pxy;
+            h[3] += pyy;
+            h[4] += -py * pxy + px * pyy;
+            h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
+        }
+        let (a, b, c) = (
+            x[0] - prob.free[0],
+            x[1] - prob.free[1],
+            x[2] - prob.free[2],
+        );
+        let k = prob.share;
+        let value = 0.5 * prob.al * (a * a + b * b) + 0.5 * prob.aa * c * c + k * d;
+        let grad = [
+            prob.al * a + k * g[0],
+            prob.al * b + k * g[1],
+            prob.aa * c + k * g[2],
+        ];
+        let hess = [
+            prob.al + k * h[0],
+            k * h[1],
+            k * h[2],
+            prob.al + k * h[3],
+            k * h[4],
+            prob.aa + k * h[5],
+        ];
+        (value, grad, hess)
+    }
+
+    proptest::proptest! {
+        /// Taking the points in blocks changes the order of no sum: the bits are those of the
+        /// point-by-point loop, for any number of points (full and short blocks) and twist.
+        #[test]
+        fn blocked_evaluation_has_the_bits_of_the_point_by_point_loop(
+            pts in proptest::collection::vec((-1.0f64..1.0, -1.0f64..1.0), 1..40),
+            x in (-1.0f64..1.0, -1.0f64..1.0, -5.0f64..5.0),
+            free in (-1.0f64..1.0, -1.0f64..1.0, -5.0f64..5.0),
+        ) {
+            let pts: Vec<[f64; 2]> = pts.into_iter().map(|(a, b)| [a, b]).collect();
+            let prob = Problem {
+                pts: &pts,
+                share: 0.3,
+                al: 500.0,
+                aa: 20.0,
+                free: [free.0, free.1, free.2],
+            };
+            let x = [x.0, x.1, x.2];
+            let (v, g, h) = prob.eval(x);
+            let (rv, rg, rh) = eval_point_by_point(&prob, x);
+            proptest::prop_assert_eq!(v.to_bits(), rv.to_bits());
+            proptest::prop_assert_eq!(g.map(f64::to_bits), rg.map(f64::to_bits));
+            proptest::prop_assert_eq!(h.map(f64::to_bits), rh.map(f64::to_bits));
+        }
     }
 
     #[test]
