@@ -70,6 +70,7 @@ use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{PI, TAU};
+use std::sync::Arc;
 
 /// Directions from the object's centre in which a filler records the outline it follows.
 const OUTLINE_BINS: usize = 36;
@@ -398,10 +399,27 @@ pub fn factory(
         camera: fill_needs.camera || push_needs.camera,
         scan: fill_needs.scan || push_needs.scan,
     };
-    let layout = layout.clone();
+    let shared = Shared::of(&p, layout);
     Ok(ControllerFactory::new(needs, move || {
-        Box::new(FillTransport::new(p.clone(), &layout))
+        Box::new(FillTransport::with(&p, &shared))
     }))
+}
+
+/// What a group's robots share: the pusher's and the filler's parameters and the layout.
+struct Shared {
+    pusher: Arc<occlusion::Params>,
+    fill: Arc<filling::Params>,
+    layout: Arc<SensorLayout>,
+}
+
+impl Shared {
+    fn of(p: &Params, layout: &SensorLayout) -> Shared {
+        Shared {
+            pusher: Arc::new(p.pusher()),
+            fill: Arc::new(p.fill.clone()),
+            layout: Arc::new(layout.clone()),
+        }
+    }
 }
 
 /// A robot's own recent poses (from its positioning sensor), for a least-squares estimate of
@@ -533,7 +551,7 @@ pub struct FillTransport {
     seen: Readings,
     /// Whether this tick's dark light ring is not the object's doing (occlusion with memory).
     veto: bool,
-    layout: SensorLayout,
+    layout: Arc<SensorLayout>,
     /// The robot's own heading, filtered.
     heading: HeadingFilter,
 }
@@ -541,11 +559,16 @@ pub struct FillTransport {
 impl FillTransport {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> FillTransport {
+        FillTransport::with(&p, &Shared::of(&p, layout))
+    }
+
+    /// [`FillTransport::new`] with what a group's robots share.
+    fn with(p: &Params, shared: &Shared) -> FillTransport {
         let reach = p.reach();
-        let mut pusher = Occlusion::new(p.pusher(), layout);
+        let mut pusher = Occlusion::shared(shared.pusher.clone(), shared.layout.clone());
         pusher.add_relay_object_color(Color::Blue);
         FillTransport {
-            filler: Filler::new(p.fill, layout),
+            filler: Filler::shared(shared.fill.clone(), shared.layout.clone()),
             pusher,
             laps: p.laps,
             pushing: false,
@@ -581,7 +604,7 @@ impl FillTransport {
             visible_since: None,
             seen: Readings::default(),
             veto: false,
-            layout: layout.clone(),
+            layout: shared.layout.clone(),
             heading: HeadingFilter::new(p.heading_gain),
         }
     }

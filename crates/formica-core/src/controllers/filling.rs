@@ -52,6 +52,7 @@ use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
+use std::sync::Arc;
 
 /// Which camera tells neighbours from the object.
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
@@ -252,9 +253,10 @@ pub fn factory(
 ) -> Result<ControllerFactory, String> {
     let p: Params = parse_params_with_defaults(params)?;
     p.validate()?;
-    let layout = layout.clone();
-    Ok(ControllerFactory::new(p.needs(), move || {
-        Box::new(Filling::new(p.clone(), &layout))
+    let needs = p.needs();
+    let (p, layout) = (Arc::new(p), Arc::new(layout.clone()));
+    Ok(ControllerFactory::new(needs, move || {
+        Box::new(Filling::shared(p.clone(), layout.clone()))
     }))
 }
 
@@ -322,8 +324,9 @@ struct Percept {
 /// `filling`, the object's centre for `fill-transport`). Embeddable.
 #[derive(Debug, Clone)]
 pub struct Filler {
-    p: Params,
-    layout: SensorLayout,
+    /// Shared by the group's robots.
+    p: Arc<Params>,
+    layout: Arc<SensorLayout>,
     state: FillState,
     since_s: f32,
     last_s: f32,
@@ -354,13 +357,18 @@ pub struct Filler {
 impl Filler {
     /// A filler with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> Filler {
+        Filler::shared(Arc::new(p), Arc::new(layout.clone()))
+    }
+
+    /// [`Filler::new`] with parameters and layout shared by every robot of a group.
+    pub fn shared(p: Arc<Params>, layout: Arc<SensorLayout>) -> Filler {
         let n = layout.proximity_angles.len().max(1);
         let stop_needed = ((p.stop_count as usize * n) as f32 / 8.0).ceil() as usize;
         let strong_needed = ((p.strong_count as usize * n) as f32 / 8.0).ceil().max(1.0) as usize;
         let front_needed = ((p.front_count as usize * n) as f32 / 8.0).ceil() as usize;
         Filler {
             p,
-            layout: layout.clone(),
+            layout,
             state: FillState::Approach,
             since_s: 0.0,
             last_s: 0.0,
@@ -802,15 +810,20 @@ impl Filler {
 #[derive(Debug, Clone)]
 pub struct Filling {
     filler: Filler,
-    layout: SensorLayout,
+    layout: Arc<SensorLayout>,
 }
 
 impl Filling {
     /// A controller with parameters `p` for robots with `layout`.
     pub fn new(p: Params, layout: &SensorLayout) -> Filling {
+        Filling::shared(Arc::new(p), Arc::new(layout.clone()))
+    }
+
+    /// [`Filling::new`] with parameters and layout shared by every robot of a group.
+    pub fn shared(p: Arc<Params>, layout: Arc<SensorLayout>) -> Filling {
         Filling {
-            filler: Filler::new(p, layout),
-            layout: layout.clone(),
+            filler: Filler::shared(p, layout.clone()),
+            layout,
         }
     }
 }
