@@ -75,6 +75,8 @@ mod tests {
     fn every_item_is_worked_on_once_with_its_index_on_any_number_of_threads() {
         for threads in [0, 1, 3] {
             let pool = (threads > 0).then(|| {
+                // A test's pool of at most three threads: building it fails only if the
+                // system cannot start a thread, and then the test must fail.
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()

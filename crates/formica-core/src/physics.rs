@@ -161,6 +161,7 @@ struct FrictionJob {
     now: Twist,
     /// Its twist at the end of the step without friction.
     free: Twist,
+    /// Its result: `None` until the job is solved, which every job is before it is read.
     step: Option<friction::Step>,
 }
 

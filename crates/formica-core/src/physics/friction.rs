@@ -251,6 +251,9 @@ impl Footprint {
     }
 }
 
+/// Value, gradient and Hessian (xx, xy, xw, yy, yw, ww) of the step's objective.
+type Eval = (f64, [f64; 3], [f64; 6]);
+
 /// The step's minimisation problem (see the module documentation).
 struct Problem<'a> {
     /// Points relative to the centre of mass, turned with the body (world frame).
@@ -273,6 +276,11 @@ impl Problem<'_> {
             let (ux, uy) = (x[0] - x[2] * py, x[1] + x[2] * px);
             d += (ux * ux + uy * uy + e2).sqrt();
         }
+        self.value(x, d)
+    }
+
+    /// The objective at `x`, given `d`, the sum over the points of their smoothed speeds.
+    fn value(&self, x: [f64; 3], d: f64) -> f64 {
         let (a, b, c) = (
             x[0] - self.free[0],
             x[1] - self.free[1],
@@ -281,8 +289,33 @@ impl Problem<'_> {
         0.5 * self.al * (a * a + b * b) + 0.5 * self.aa * c * c + self.share * d
     }
 
+    /// Value, gradient and Hessian at `x` from the sums over the points of their smoothed
+    /// speeds (`d`), of those speeds' gradients (`g`) and of their Hessians (`h`).
+    fn assemble(&self, x: [f64; 3], d: f64, g: [f64; 3], h: [f64; 6]) -> Eval {
+        let (a, b, c) = (
+            x[0] - self.free[0],
+            x[1] - self.free[1],
+            x[2] - self.free[2],
+        );
+        let k = self.share;
+        let grad = [
+            self.al * a + k * g[0],
+            self.al * b + k * g[1],
+            self.aa * c + k * g[2],
+        ];
+        let hess = [
+            self.al + k * h[0],
+            k * h[1],
+            k * h[2],
+            self.al + k * h[3],
+            k * h[4],
+            self.aa + k * h[5],
+        ];
+        (self.value(x, d), grad, hess)
+    }
+
     /// Value, gradient and Hessian (xx, xy, xw, yy, yw, ww).
-    fn eval(&self, x: [f64; 3]) -> (f64, [f64; 3], [f64; 6]) {
+    fn eval(&self, x: [f64; 3]) -> Eval {
         let e2 = CREEP * CREEP;
         let (mut d, mut g, mut h) = (0.0, [0.0; 3], [0.0; 6]);
         // A few points at a time: their square roots and divisions first (independent of each
@@ -317,27 +350,7 @@ impl Problem<'_> {
                 h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
             }
         }
-        let (a, b, c) = (
-            x[0] - self.free[0],
-            x[1] - self.free[1],
-            x[2] - self.free[2],
-        );
-        let k = self.share;
-        let value = 0.5 * self.al * (a * a + b * b) + 0.5 * self.aa * c * c + k * d;
-        let grad = [
-            self.al * a + k * g[0],
-            self.al * b + k * g[1],
-            self.aa * c + k * g[2],
-        ];
-        let hess = [
-            self.al + k * h[0],
-            k * h[1],
-            k * h[2],
-            self.al + k * h[3],
-            k * h[4],
-            self.aa + k * h[5],
-        ];
-        (value, grad, hess)
+        self.assemble(x, d, g, h)
     }
 }
 
@@ -460,9 +473,9 @@ mod tests {
         );
     }
 
-    /// [`Problem::eval`] as it was written before it took the points in blocks: one point at a
-    /// time, turning each point on every call.
-    fn eval_point_by_point(prob: &Problem, x: [f64; 3]) -> (f64, [f64; 3], [f64; 6]) {
+    /// [`Problem::eval`] with its sums taken as before it took the points in blocks: one point
+    /// at a time.
+    fn eval_point_by_point(prob: &Problem, x: [f64; 3]) -> Eval {
         let e2 = CREEP * CREEP;
         let (mut d, mut g, mut h) = (0.0, [0.0; 3], [0.0; 6]);
         for &[px, py] in prob.pts {
@@ -482,27 +495,7 @@ mod tests {
             h[4] += -py * pxy + px * pyy;
             h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
         }
-        let (a, b, c) = (
-            x[0] - prob.free[0],
-            x[1] - prob.free[1],
-            x[2] - prob.free[2],
-        );
-        let k = prob.share;
-        let value = 0.5 * prob.al * (a * a + b * b) + 0.5 * prob.aa * c * c + k * d;
-        let grad = [
-            prob.al * a + k * g[0],
-            prob.al * b + k * g[1],
-            prob.aa * c + k * g[2],
-        ];
-        let hess = [
-            prob.al + k * h[0],
-            k * h[1],
-            k * h[2],
-            prob.al + k * h[3],
-            k * h[4],
-            prob.aa + k * h[5],
-        ];
-        (value, grad, hess)
+        prob.assemble(x, d, g, h)
     }
 
     proptest::proptest! {
