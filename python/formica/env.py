@@ -2,7 +2,8 @@
 
 - :func:`parallel_env` -> :class:`TransportParallelEnv`, a PettingZoo ``ParallelEnv``: each
   robot is an agent (``robot_0`` ...), its observation is its readings vector (float32
-  ``[L]``, named by ``env.reading_names``), its action its wheel speeds ``(left, right)`` in
+  ``[L]``, named by ``env.reading_names``, bounded by ``World.reading_bounds``: the arena,
+  the sensor noise's largest draw and the run's duration), its action its wheel speeds ``(left, right)`` in
   m/s (a ``Box(-max_speed, max_speed, (2,))``).
 - :class:`TransportGymEnv`: the same task for one policy that drives every robot (Gymnasium
   ``Env``; observation ``[N, L]``, action ``[N, 2]``). Registered as ``formica/Transport-v0``.
@@ -58,9 +59,6 @@ DEFAULT_SCENARIO = "scenarios/seed-transport.toml"
 DEFAULT_SENSORS = ("proximity", "light", "beacon")
 SENSORS = ("proximity", "light", "beacon", "camera")
 
-#: Slots of the readings vector that lie in [0, 1]; ``time_s`` is at least 0; the others
-#: (positions in m, heading in rad) are unbounded.
-_UNIT_SLOTS = ("proximity", "light", "has_beacon", "attached")
 
 
 def prepare_scenario(scenario, robots=None, set=None, sensors=DEFAULT_SENSORS):
@@ -88,19 +86,6 @@ def prepare_scenario(scenario, robots=None, set=None, sensors=DEFAULT_SENSORS):
         sc.set(f"robots.{g}.controller", "external")
         sc.set(f"robots.{g}.params", params)
     return sc
-
-
-def observation_bounds(slots: dict, size: int):
-    """Lower and upper bounds of a readings vector with ``slots`` ({name: (offset, len)})."""
-    low = np.full(size, -np.inf, dtype=np.float32)
-    high = np.full(size, np.inf, dtype=np.float32)
-    for name, (offset, length) in slots.items():
-        if name in _UNIT_SLOTS:
-            low[offset : offset + length] = 0.0
-            high[offset : offset + length] = 1.0
-        elif name == "time_s":
-            low[offset : offset + length] = 0.0
-    return low, high
 
 
 class _Task:
@@ -139,6 +124,8 @@ class _Task:
             raise ValueError("the scenario has no robots")
         self.groups = probe.robot_groups
         self.layouts = [probe.layout(g) for g in range(len(probe.groups))]
+        # What each group's readings can hold: the arena, the noise's largest draw, the run.
+        self.bounds = [probe.reading_bounds(g) for g in range(len(probe.groups))]
 
     def take_seed(self, seed: Optional[int]) -> int:
         if seed is not None:
@@ -154,8 +141,14 @@ class _Task:
         r = r - np.where(codes == 2, self.wall_penalty, 0.0)
         return r
 
-    def space_of(self, layout) -> spaces.Box:
-        low, high = observation_bounds(layout.slots, layout.size)
+    def space_of(self, group: int) -> spaces.Box:
+        low, high = self.bounds[group]
+        return spaces.Box(low, high, dtype=np.float32)
+
+    def robots_space(self) -> spaces.Box:
+        """``[N, L]``: each robot's row bounded as its group's readings."""
+        low = np.stack([self.bounds[g][0] for g in self.groups])
+        high = np.stack([self.bounds[g][1] for g in self.groups])
         return spaces.Box(low, high, dtype=np.float32)
 
     def uniform_layout(self):
@@ -183,7 +176,7 @@ class TransportParallelEnv(ParallelEnv):
         self.possible_agents = [f"robot_{i}" for i in range(t.n)]
         self.agents: list = []
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
-        group_obs = [t.space_of(l) for l in t.layouts]
+        group_obs = [t.space_of(g) for g in range(len(t.layouts))]
         group_act = [
             spaces.Box(-l.max_speed, l.max_speed, shape=(2,), dtype=np.float32) for l in t.layouts
         ]
@@ -291,10 +284,7 @@ class TransportGymEnv(gymnasium.Env):
         self._task = _Task(scenario, **options)
         t = self._task
         layout = t.uniform_layout()
-        low, high = observation_bounds(layout.slots, layout.size)
-        self.observation_space = spaces.Box(
-            np.tile(low, (t.n, 1)), np.tile(high, (t.n, 1)), dtype=np.float32
-        )
+        self.observation_space = t.robots_space()
         speed = np.array([t.layouts[g].max_speed for g in t.groups], dtype=np.float32)
         speed = np.repeat(speed[:, None], 2, axis=1)
         self.action_space = spaces.Box(-speed, speed, dtype=np.float32)
@@ -347,10 +337,7 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
         t = self._task
         self.num_envs = int(num_envs)
         layout = t.uniform_layout()
-        low, high = observation_bounds(layout.slots, layout.size)
-        self.single_observation_space = spaces.Box(
-            np.tile(low, (t.n, 1)), np.tile(high, (t.n, 1)), dtype=np.float32
-        )
+        self.single_observation_space = t.robots_space()
         speed = np.array([t.layouts[g].max_speed for g in t.groups], dtype=np.float32)
         speed = np.repeat(speed[:, None], 2, axis=1)
         self.single_action_space = spaces.Box(-speed, speed, dtype=np.float32)

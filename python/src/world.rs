@@ -673,6 +673,42 @@ impl PyWorld {
         slots_dict(py, &g.selection(group)?.1)
     }
 
+    /// `(low, high)`, float32 `[L]` each: bounds that every value of the readings' columns
+    /// (all groups alike, or group `group`'s) keeps over this run, from the arena, the sensor
+    /// noise (its largest draw) and the run's duration: proximity, light and the flags in
+    /// [0, 1], `theta` in [-pi, pi], positions in the arena (and 0, what a robot not yet
+    /// released reads), `time_s` in [0, duration].
+    #[pyo3(signature = (group = None))]
+    #[allow(clippy::type_complexity)]
+    fn reading_bounds<'py>(
+        &self,
+        py: Python<'py>,
+        group: Option<usize>,
+    ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<f32>>)> {
+        let g = self.sim()?;
+        g.selection(group)?;
+        let groups = match group {
+            Some(k) => k..k + 1,
+            None => 0..g.shapes.len(),
+        };
+        let mut bounds: Option<(Vec<f32>, Vec<f32>)> = None;
+        for k in groups {
+            let (lo, hi) = g
+                .run
+                .reading_bounds(k)
+                .ok_or_else(|| PyIndexError::new_err(format!("group {k}: no such group")))?;
+            bounds = Some(match bounds {
+                None => (lo, hi),
+                Some((l, h)) => (
+                    l.iter().zip(&lo).map(|(a, b)| a.min(*b)).collect(),
+                    h.iter().zip(&hi).map(|(a, b)| a.max(*b)).collect(),
+                ),
+            });
+        }
+        let (lo, hi) = bounds.ok_or_else(|| PyValueError::new_err("this world has no robots"))?;
+        Ok((PyArray1::from_vec(py, lo), PyArray1::from_vec(py, hi)))
+    }
+
     /// The sensor layout of group `group`'s robots.
     #[pyo3(signature = (group = 0))]
     fn layout(&self, group: usize) -> PyResult<PyLayout> {

@@ -52,10 +52,15 @@ def test_same_seed_same_episode():
 
 
 def test_the_gymnasium_wrapper():
+    import warnings
+
     from gymnasium.utils.env_checker import check_env
 
     env = fenv.TransportGymEnv(robots=4, max_steps=20)
-    check_env(env, skip_render_check=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    assert not [str(w.message) for w in caught], "the env checker warned"
     obs, info = env.reset(seed=3)
     assert obs.shape == (4, 24) and env.action_space.shape == (4, 2)
     obs, reward, terminated, truncated, info = env.step(np.zeros((4, 2), dtype=np.float32))
@@ -86,3 +91,34 @@ def test_the_default_scenario_works_outside_the_repository(tmp_path, monkeypatch
     env = fenv.parallel_env(robots=3)
     obs, _ = env.reset(seed=1)
     assert len(obs) == 3 and env._task.scenario.name == "seed-transport"
+
+
+def test_observations_stay_within_bounds_that_the_arena_and_noise_give():
+    # Noise far above the preset's, robots released one every 2 s: every observation of an
+    # episode lies in the space, and the space is finite and no wider than the arena allows.
+    env = fenv.TransportGymEnv(
+        robots=8,
+        frame_skip=5,
+        set={
+            "robots.0.sensors.position_noise": 0.05,
+            "robots.0.sensors.heading_noise": 1.0,
+            "robots.0.release": {"interval_s": 2.0},
+            "run.duration_s": 60.0,
+        },
+    )
+    space = env.observation_space
+    assert np.isfinite(space.low).all() and np.isfinite(space.high).all()
+    names = env.reading_names
+    x, theta, t = names.index("x"), names.index("theta"), names.index("time_s")
+    # seed-transport's arena: 6 m wide, centred on the origin.
+    assert 3.0 < space.high[0, x] < 3.0 + 0.1 + 5.8 * 0.05 + 1e-5
+    assert space.high[0, theta] == np.float32(np.pi) and space.high[0, t] == 60.0
+    obs, _ = env.reset(seed=4)
+    steps, done = 0, False
+    rng = np.random.default_rng(1)
+    while not done:
+        assert space.contains(obs), steps
+        obs, _, term, trunc, _ = env.step(rng.uniform(-0.8, 0.8, (8, 2)).astype(np.float32))
+        steps, done = steps + 1, term or trunc
+    assert space.contains(obs)
+    assert steps == 120 or term

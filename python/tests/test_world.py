@@ -40,6 +40,24 @@ def test_arrays_have_the_documented_shapes_and_dtypes():
     }
 
 
+def test_reading_bounds_come_from_the_arena_the_noise_and_the_run():
+    w = formica.World(SEED_TRANSPORT, seed=3)
+    low, high = w.reading_bounds()
+    assert low.shape == high.shape == (L,) and low.dtype == high.dtype == np.float32
+    lo0, hi0 = w.reading_bounds(0)
+    assert np.array_equal(low, lo0) and np.array_equal(high, hi0)
+    assert (low[:16] == 0).all() and (high[:16] == 1).all()
+    # 6 x 4 m arena, 0.1 m of walls, the preset's 1 cm positioning noise at 5.8 spreads.
+    assert high[16] == pytest.approx(3.0 + 0.1 + 5.8 * 0.01, abs=1e-5)
+    assert low[17] == pytest.approx(-(2.0 + 0.1 + 5.8 * 0.01), abs=1e-5)
+    assert high[18] == np.float32(np.pi) and (low[23], high[23]) == (0.0, 1200.0)
+    w.step(50)
+    r = w.readings()
+    assert ((r >= low) & (r <= high)).all()
+    with pytest.raises(IndexError):
+        w.reading_bounds(1)
+
+
 def test_units_metres_radians_seconds():
     # Exact sensors (the shipped scenario has the realistic noise preset).
     w = formica.World(formica.load(SEED_TRANSPORT).set("robots.0.sensors.noise", "none"), seed=3)

@@ -4,6 +4,7 @@
 //! only from the per-robot generator it is handed. It never sees the world.
 
 use crate::geometry::{wrap_angle, Vec2};
+use crate::noise::{self, NoiseModel};
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 
@@ -244,6 +245,10 @@ pub struct FlatReadings {
     light: usize,
 }
 
+/// How far beyond the arena's usable area a body's centre can be (m): the walls stand there,
+/// and a body pressed into one overlaps it by millimetres, not by this.
+pub const BODY_SLACK_M: f32 = 0.1;
+
 /// A named run of slots in a [`FlatReadings`] vector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Slot {
@@ -349,6 +354,47 @@ impl FlatReadings {
             r.time_s,
         ]);
         Ok(())
+    }
+
+    /// Lower and upper bounds of every value [`FlatReadings::write`] can give a robot of a
+    /// world whose arena has centre and size `arena`, with sensor noise `noise`, over a run of
+    /// `duration_s`: proximity, light and the flags in [0, 1]; `theta` in [-pi, pi]; `x`, `y`,
+    /// `beacon_x`, `beacon_y` within the arena (grown by its walls' reach, [`BODY_SLACK_M`],
+    /// and by the largest noise draw, [`noise::MAX_NORMAL`] spreads), and 0 (what a robot not
+    /// yet released reads); `time_s` in [0, `duration_s`].
+    pub fn bounds(
+        &self,
+        arena: (Vec2, Vec2),
+        noise: &NoiseModel,
+        duration_s: f32,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let (centre, size) = arena;
+        let extent = |sd: f32, c: f32, half: f32| {
+            let reach = half + BODY_SLACK_M + noise::MAX_NORMAL * sd.max(0.0);
+            ((c - reach).min(0.0), (c + reach).max(0.0))
+        };
+        let span = |name: &str| -> (f32, f32) {
+            match name {
+                "x" => extent(noise.position_noise, centre.x, size.x / 2.0),
+                "y" => extent(noise.position_noise, centre.y, size.y / 2.0),
+                "beacon_x" => extent(noise.beacon_noise, centre.x, size.x / 2.0),
+                "beacon_y" => extent(noise.beacon_noise, centre.y, size.y / 2.0),
+                "theta" => (-std::f32::consts::PI, std::f32::consts::PI),
+                "time_s" => (0.0, duration_s.max(0.0)),
+                // proximity, light, has_beacon, attached
+                _ => (0.0, 1.0),
+            }
+        };
+        let (mut low, mut high) = (
+            Vec::with_capacity(self.len()),
+            Vec::with_capacity(self.len()),
+        );
+        for s in self.slots() {
+            let (lo, hi) = span(s.name);
+            low.extend(std::iter::repeat_n(lo, s.len));
+            high.extend(std::iter::repeat_n(hi, s.len));
+        }
+        (low, high)
     }
 }
 

@@ -34,6 +34,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use crate::controller::FlatReadings;
 use crate::geometry::Vec2;
 use crate::physics::Tag;
 use crate::registry::{Registry, RegistryError};
@@ -502,6 +503,22 @@ impl Run {
     /// The outcome, once the run is over.
     pub fn outcome(&self) -> Option<Outcome> {
         self.outcome
+    }
+
+    /// How long the run lasts at most (s): the world's clock after its last tick.
+    pub fn duration_s(&self) -> f32 {
+        (self.max_ticks as f64 / self.world.tick_hz) as f32
+    }
+
+    /// Lower and upper bounds of the readings vectors ([`FlatReadings`]) of group `group`'s
+    /// robots over this run ([`FlatReadings::bounds`]); `None` without such a group.
+    pub fn reading_bounds(&self, group: usize) -> Option<(Vec<f32>, Vec<f32>)> {
+        let g = self.world.groups.get(group)?;
+        Some(FlatReadings::of(&g.layout).bounds(
+            self.world.arena,
+            &g.sensors.noise,
+            self.duration_s(),
+        ))
     }
 
     /// The goal radius of the success rule (m).

@@ -125,6 +125,10 @@ pub fn preset(kind: ModelKind, preset: NoisePreset) -> NoiseModel {
     }
 }
 
+/// The largest magnitude a [`Gauss::normal`] draw can have: its uniform draws are multiples of
+/// 2^-24, so `-2 ln u1 <= 48 ln 2` and `|z| <= 5.77`. Bounds of noisy readings rest on it.
+pub const MAX_NORMAL: f32 = 5.8;
+
 /// Standard normal draws for one robot's readings in one tick: the Box–Muller transform of two
 /// uniform draws gives two independent normals, and the second is kept for the next call (so
 /// noise costs half the transcendental functions). Built on the same portable functions as
@@ -213,5 +217,32 @@ mod tests {
         // The two halves of each pair are uncorrelated.
         let cov = xs.chunks(2).map(|p| p[0] * p[1]).sum::<f64>() / (n / 2) as f64;
         assert!(cov.abs() < 0.015, "covariance {cov}");
+    }
+
+    /// A generator whose every draw is all ones: the largest uniform value, so the smallest
+    /// `u1` the transform sees.
+    struct AllOnes;
+
+    impl rand::RngCore for AllOnes {
+        fn next_u32(&mut self) -> u32 {
+            u32::MAX
+        }
+        fn next_u64(&mut self) -> u64 {
+            u64::MAX
+        }
+        fn fill_bytes(&mut self, dst: &mut [u8]) {
+            dst.fill(u8::MAX);
+        }
+    }
+
+    #[test]
+    fn no_normal_draw_exceeds_max_normal_and_the_bound_is_tight() {
+        let mut rng = AllOnes;
+        let mut g = Gauss::new(&mut rng);
+        let z = g.normal();
+        assert!(z.abs() <= MAX_NORMAL && z.abs() > 5.7, "{z}");
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+        let mut g = Gauss::new(&mut rng);
+        assert!((0..1_000_000).all(|_| g.normal().abs() <= MAX_NORMAL));
     }
 }

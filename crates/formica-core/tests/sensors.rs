@@ -434,3 +434,59 @@ fn check_warns_about_the_oracle_camera_and_exact_sensors() {
     assert!(w.contains("exact"), "{w}");
     assert_eq!(warn("noise = \"realistic\""), None);
 }
+
+#[test]
+fn every_reading_vector_lies_within_the_bounds_the_layout_gives() {
+    // An arena away from the origin (unreleased robots read zeros), robots released one by one
+    // that go for the box, and noise well above the preset's.
+    let text = format!(
+        "[arena]\nsize = [2.0, 1.5]\ncenter = [3.0, 2.0]\n\
+         [[lights]]\nat = [3.9, 2.0]\nheight = 0.5\nintensity = 10.0\n\
+         {}\
+         [[robots]]\ncount = 6\ncontroller = \"occlusion\"\n\
+         placement = {{ grid = {{ center = [2.25, 2.0], spacing = 0.2, columns = 1, heading_deg = 0.0 }} }}\n\
+         release = {{ interval_s = 2.0 }}\n\
+         sensors = {{ noise = \"realistic\", position_noise = 0.05, beacon_noise = 0.05, heading_noise = 1.0, light_noise = 0.5, proximity_noise = 0.5 }}\n\
+         [run]\nduration_s = 30\n",
+        seed_box(2.8, 2.0)
+    );
+    let sc = formica::Scenario::parse(&text, "bounds.toml").unwrap_or_else(|e| panic!("{e}"));
+    let mut run = start(&sc, 3);
+    let flat = formica::controller::FlatReadings::of(&run.world.groups[0].layout);
+    let (low, high) = run.reading_bounds(0).expect("one group");
+    assert_eq!((low.len(), high.len()), (flat.len(), flat.len()));
+    assert!(run.reading_bounds(1).is_none());
+    let names = flat.names();
+    let mut v = vec![0.0; flat.len()];
+    let mut ticks = 0;
+    while run.step().is_none() {
+        ticks += 1;
+        for r in &run.world.robots {
+            flat.write(&r.readings, &mut v).unwrap();
+            for (k, x) in v.iter().enumerate() {
+                assert!(
+                    (low[k]..=high[k]).contains(x),
+                    "tick {ticks}: {} = {x} outside [{}, {}]",
+                    names[k],
+                    low[k],
+                    high[k]
+                );
+            }
+        }
+    }
+    assert_eq!(
+        (ticks, run.outcome()),
+        (299, Some(formica::Outcome::Timeout))
+    );
+    // The bounds are those of this arena and this noise, not just wide.
+    let at = |n: &str| names.iter().position(|m| m == n).unwrap();
+    let reach = 1.0 + formica::controller::BODY_SLACK_M + formica::noise::MAX_NORMAL * 0.05;
+    assert!(
+        (high[at("x")] - (3.0 + reach)).abs() < 1e-5,
+        "{}",
+        high[at("x")]
+    );
+    assert_eq!(low[at("x")], 0.0);
+    assert_eq!(high[at("time_s")], 30.0);
+    assert_eq!(high[at("theta")], std::f32::consts::PI);
+}
