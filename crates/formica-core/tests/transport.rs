@@ -108,9 +108,19 @@ fn camera_robots_transport_too() {
         "controller = \"occlusion\"\nparams = { perception = \"camera\" }",
     );
     let sc = Scenario::parse(&text, "camera.toml").unwrap_or_else(|e| panic!("{e}"));
-    let mut run = start(&sc, 1);
-    assert_eq!(run.run_to_end(), Outcome::Success);
-    assert!(run.world.groups[0].needs().scan && !run.world.groups[0].needs().beacon);
+    // Without the beacon, at about the beacon's pace: robots that lose sight of the box go
+    // back to where they saw it or toward robots whose LEDs say they are at it, and push
+    // through pushers (results format 19: a median of 268 s over these seeds, 183-401 s).
+    let mut times = Vec::new();
+    for seed in 1..=6 {
+        let mut run = start(&sc, seed);
+        assert_eq!(run.run_to_end(), Outcome::Success, "seed {seed}");
+        assert!(run.world.groups[0].needs().scan && !run.world.groups[0].needs().beacon);
+        times.push(run.world.time_s);
+    }
+    times.sort_by(f64::total_cmp);
+    let median = (times[2] + times[3]) / 2.0;
+    assert!(median < 200.0, "median {median} s: {times:?}");
 }
 
 #[test]

@@ -6,8 +6,10 @@
 //! 1. **search / approach**: finds the object and drives to it. With `perception = "beacon"`
 //!    it steers to the object's centre (`Readings::beacon`, as in the seed); with
 //!    `perception = "camera"` it steers to the nearest object-coloured bin of its colour scan
-//!    ([`Readings::scan_color`]) and random-walks while it sees none. It does not shove what is
-//!    in its way.
+//!    ([`Readings::scan_color`]); with none in sight, back to where it last saw the object (by
+//!    its own positioning), else toward the nearest robot whose LED says it is at the object
+//!    (pushing: red; circling: blue), else it random-walks. It does not shove what is in its
+//!    way.
 //! 2. **circle**: follows the object's outline with the **left-hand rule** (default
 //!    `circle_side = "left"`; with relays `"shortest"`): the object stays on the robot's left,
 //!    so robots go round it counter-clockwise seen from above, `circle_gap` from its surface,
@@ -16,7 +18,10 @@
 //!    reading above the mean of its weaker half, stays below `dark_contrast` for `hidden_s`;
 //!    ambient light and noise never read exactly zero), it turns to face the object along the
 //!    surface normal (the bearing to the nearest surface point), turned at most
-//!    `push_goal_bias_deg` toward the goal, and pushes. When the goal shows again (contrast
+//!    `push_goal_bias_deg` toward the goal, and pushes. With the camera it also pushes a pusher
+//!    (red LED) that touches it on the object's side with the object just beyond, so that
+//!    pushers stack in rows, as beacon robots (which cannot tell a pusher from the object) do.
+//!    When the goal shows again (contrast
 //!    above `lit_contrast` for `visible_s`), it goes back to circling. The two thresholds make
 //!    a hysteresis, so that noise does not flip the decision every tick.
 //! 4. **escape**: time-outs free stuck robots. A robot that should move but has not moved
@@ -33,8 +38,8 @@
 //!   assumes no particular spread law) and, with its own pose, intersects it with the earlier
 //!   bearings (least squares), so it knows where the goal is even while it is hidden.
 //! - **Hidden by the object, not a neighbour**: a dark goal counts only if the object's
-//!   direction (beacon: its centre; camera: the surface normal) is within
-//!   `occluder_angle_deg` of the goal's direction. With the beacon this also keeps pushers near
+//!   direction (beacon: its centre; camera: the centroid of what the colour scan shows of it)
+//!   is within `occluder_angle_deg` of the goal's direction. With the beacon this also keeps pushers near
 //!   the line from the goal through the centre, so they turn the object little.
 //!
 //! Where the object's surface is: with the camera, the nearest object-coloured bin of the scan
@@ -433,6 +438,9 @@ pub struct Occlusion {
     spread: Spread,
     /// Whether the object moves (`Params::spread_still_m`).
     object: ObjectMotion,
+    /// Camera perception: where (world frame, by the robot's own positioning) the scan last
+    /// showed the object, until the robot gets there without seeing it.
+    seen_at: Option<Vec2>,
 }
 
 /// Where a robot stood and since when, for "no progress for so long" tests.
@@ -570,6 +578,7 @@ impl Occlusion {
             escape_turn: 1.0,
             walk_turn: 0.0,
             walk_left_s: 0.0,
+            seen_at: None,
             slide_until: f32::NEG_INFINITY,
             slide_dir: 1.0,
             spread: Spread::default(),
@@ -717,6 +726,53 @@ impl Occlusion {
     fn twist(&self, forward: f32, turn: f32) -> Actuation {
         let t = turn.clamp(-self.p.max_turn, self.p.max_turn);
         Actuation::from_twist(forward, t, &self.layout)
+    }
+
+    /// Camera perception, the object out of sight: the bearing (robot frame) back to where the
+    /// scan last showed it, until the robot is there (then it searches at random).
+    fn back_to_seen(&mut self, r: &Readings) -> Option<f32> {
+        let to = self.seen_at? - r.pose.position();
+        if to.length() < SEEN_REACHED_M {
+            self.seen_at = None;
+            return None;
+        }
+        Some(wrap_angle(ops::angle_of(to) - r.pose.theta))
+    }
+
+    /// Camera perception, the object out of sight: the bearing (robot frame) of the nearest
+    /// robot whose LED says it is at the object (pushing: red; circling: blue), as the scan
+    /// shows it. Robots behind a crowd that hides the object join it so.
+    fn toward_busy(&self, r: &Readings) -> Option<f32> {
+        let object = self.p.object_color;
+        let busy = |c: Color| c != object && (c == PUSH_LED || c == CIRCLE_LED);
+        nearest_in_scan(r, &self.layout.scan_angles, busy).map(|(b, _)| b)
+    }
+
+    /// Camera perception: the bearing (robot frame) of a pusher (a robot showing the push LED
+    /// colour) touching this robot on the side where the object is (`s`, within
+    /// [`PUSHER_AHEAD_RAD`]), the object no farther than a robot's width and a contact gap:
+    /// pushing it pushes the object.
+    fn pusher_ahead(&self, r: &Readings, s: Surface) -> Option<f32> {
+        let reach = 2.0 * self.layout.radius + self.p.contact_gap;
+        if self.p.perception != Perception::Camera || s.gap > reach {
+            return None;
+        }
+        let object = self.p.object_color;
+        let touching = |c: Color, d: f32, b: f32| {
+            c == PUSH_LED
+                && object != PUSH_LED
+                && d - self.layout.radius <= self.p.contact_gap
+                && wrap_angle(b - s.bearing).abs() <= PUSHER_AHEAD_RAD
+        };
+        let n = r
+            .scan_color
+            .len()
+            .min(r.scan_range.len())
+            .min(self.layout.scan_angles.len());
+        (0..n)
+            .filter(|&i| touching(r.scan_color[i], r.scan_range[i], self.layout.scan_angles[i]))
+            .min_by(|&i, &j| r.scan_range[i].total_cmp(&r.scan_range[j]))
+            .map(|i| self.layout.scan_angles[i])
     }
 
     /// Bearing (robot frame) to the object's centre, with the beacon.
@@ -1029,6 +1085,34 @@ impl GoalFix {
 /// Proximity readings at or below this are taken as nothing (the sensors' noise floor).
 pub const NOISE_FLOOR: f32 = 0.03;
 
+/// LED colours of pushing and circling robots, which camera robots read as "at the object".
+const PUSH_LED: Color = Color::Red;
+const CIRCLE_LED: Color = Color::Blue;
+
+/// How far off the object's direction (rad) a pusher may stand and still be pushed through.
+const PUSHER_AHEAD_RAD: f32 = 0.5;
+
+/// How near (m) a robot must come to where it last saw the object to give up looking there.
+const SEEN_REACHED_M: f32 = 0.3;
+
+/// Bearing (robot frame) of the centroid of the scan's `wanted` points (each bin's bearing
+/// and range): where the bulk of what the robot sees of the object lies, as the beacon's
+/// centre would say. `None` when no bin shows it.
+pub fn centroid_in_scan(
+    r: &Readings,
+    angles: &[f32],
+    wanted: impl Fn(Color) -> bool,
+) -> Option<f32> {
+    let n = r.scan_color.len().min(r.scan_range.len()).min(angles.len());
+    let mut sum = Vec2::ZERO;
+    let mut any = false;
+    for i in (0..n).filter(|&i| wanted(r.scan_color[i])) {
+        sum += ops::unit(angles[i]) * r.scan_range[i];
+        any = true;
+    }
+    (any && sum.length() > 1e-6).then(|| ops::angle_of(sum))
+}
+
 /// The nearest thing the colour scan shows in a colour `wanted` accepts: its bearing (robot
 /// frame, rad) and range (m). The scan's ranges are coarse (`scan_step`), so a flat face
 /// near the robot reads the same range over several neighbouring bins; the bearing is the
@@ -1198,9 +1282,16 @@ impl Controller for Occlusion {
         self.object
             .update(r.beacon, r.time_s, self.p.spread_still_m);
         let (surface, other, wall) = self.perceive(r);
+        if let (Perception::Camera, Some(s)) = (self.p.perception, surface) {
+            let d = s.gap + self.layout.radius;
+            self.seen_at = Some(r.pose.position() + ops::unit(s.bearing + r.pose.theta) * d);
+        }
         let object_dir = match self.p.perception {
             Perception::Beacon => self.centre_bearing(r).map(|(b, _)| b),
-            Perception::Camera => surface.map(|s| s.bearing),
+            Perception::Camera => {
+                let object = self.p.object_color;
+                centroid_in_scan(r, &self.layout.scan_angles, |c| c == object)
+            }
         };
         if let Some(relay) = self.relay.as_mut() {
             relay.observe(r, &self.layout);
@@ -1241,9 +1332,19 @@ impl Controller for Occlusion {
                     let target = match (self.p.perception, surface) {
                         _ if gated => None,
                         (Perception::Camera, Some(s)) => Some(s.bearing),
-                        (Perception::Camera, None) => None,
+                        (Perception::Camera, None) => {
+                            self.back_to_seen(r).or_else(|| self.toward_busy(r))
+                        }
                         (Perception::Beacon, _) => self.centre_bearing(r).map(|(b, _)| b),
                     };
+                    // Camera: a pusher (red LED) right ahead with the object just beyond it
+                    // and the goal hidden: push it, so that pushers stack in rows as they do
+                    // when the beacon cannot tell a pusher from the object.
+                    let stack = surface.and_then(|s| self.pusher_ahead(r, s));
+                    if hidden && !gated && stack.is_some() {
+                        self.set_state(State::Push, r);
+                        continue;
+                    }
                     let contact = surface.filter(|s| !gated && s.gap <= self.p.contact_gap);
                     if let Some(s) = contact {
                         self.side = self.choose_side(r, s.bearing);
@@ -1369,6 +1470,14 @@ impl Controller for Occlusion {
                         self.set_state(State::Circle, r);
                         continue;
                     }
+                    // Pushing through a pusher ahead (camera): toward it.
+                    let s = match self.pusher_ahead(r, s) {
+                        Some(b) if s.gap > self.p.contact_gap => Surface {
+                            bearing: b,
+                            gap: 0.0,
+                        },
+                        _ => s,
+                    };
                     if s.gap > 2.0 * self.p.contact_gap + 0.05 {
                         self.set_state(State::Approach, r);
                         continue;
@@ -1415,8 +1524,8 @@ impl Controller for Occlusion {
         };
         self.last_s = now;
         let led = match self.state {
-            State::Push => Color::Red,
-            State::Circle => Color::Blue,
+            State::Push => PUSH_LED,
+            State::Circle => CIRCLE_LED,
             State::Escape => Color::Yellow,
             State::Search | State::Approach => Color::White,
             State::Relay => self.p.relay.goal_color,
@@ -1462,6 +1571,36 @@ mod tests {
         assert_eq!(with(false, None), Side::Left);
         assert_eq!(with(true, None), Side::Shortest);
         assert_eq!(with(true, Some(Side::Left)), Side::Left);
+    }
+
+    #[test]
+    fn the_scan_centroid_points_where_the_bulk_of_the_object_is() {
+        let angles: Vec<f32> = (0..36)
+            .map(|i| wrap_angle(i as f32 * std::f32::consts::TAU / 36.0))
+            .collect();
+        let green = |c: Color| c == Color::Green;
+        // Scan bins that show the object at `range(bearing)` between bearings `from..=to` (deg).
+        let scan = |from: i32, to: i32, range: &dyn Fn(f32) -> f32| {
+            let mut r = Readings::default();
+            for a in &angles {
+                let deg = (a.to_degrees()).round() as i32;
+                let on = (from..=to).contains(&deg);
+                r.scan_color
+                    .push(if on { Color::Green } else { Color::Off });
+                r.scan_range.push(if on { range(*a) } else { 1.0 });
+            }
+            r
+        };
+        // A flat face 0.1 m ahead, seen out to 1 m either side: straight ahead.
+        let face = scan(-80, 80, &|a| (0.1 / ops::cos(a)).min(1.0));
+        assert!(centroid_in_scan(&face, &angles, green).unwrap().abs() < 1e-4);
+        // At the face's left end: the bulk lies to the right, not along the normal.
+        let end = scan(-80, 0, &|a| (0.1 / ops::cos(a)).min(1.0));
+        let b = centroid_in_scan(&end, &angles, green).unwrap();
+        assert!((-1.2..-0.5).contains(&b), "{b}");
+        // Nothing of the object in sight: no direction.
+        let none = scan(200, 200, &|_| 1.0);
+        assert_eq!(centroid_in_scan(&none, &angles, green), None);
     }
 
     #[test]
