@@ -360,6 +360,21 @@ fn check_and_run_warn_when_occlusion_cannot_reach_round_the_object() {
     );
     let run_enough = run_briefly_stderr(&dir.join("enough.toml"), &text("object_reach = 0.85"));
     assert!(!run_enough.contains("warning"), "{run_enough}");
+    // The U's back is within reach of robots going round it: they push, slowly.
+    assert!(
+        short.contains("near its ends") && !short.contains("fails"),
+        "{short}"
+    );
+    // A 1.0 m box: robots going round it are 0.60 m from its centre at best, beyond 0.6 m
+    // with their gap, so none pushes (seeds 1-10: 0 delivered; with 0.91, 10 of 10).
+    let seed = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
+    let big = seed.replace("box = [0.5, 0.5]", "box = [1.0, 1.0]");
+    assert_ne!(big, seed);
+    let fails = check_text(&dir, &big);
+    assert!(
+        fails.contains("transport fails") && fails.contains("at least 0.91"),
+        "{fails}"
+    );
 }
 
 #[test]
