@@ -332,26 +332,40 @@ impl Problem<'_> {
             for (ik, uk) in inv.iter_mut().zip(&u) {
                 *ik = 1.0 / uk[2];
             }
-            for ((&[px, py], &[ux, uy, s]), &inv) in block.iter().zip(&u).zip(&inv) {
-                d += s;
-                // d|u|/dxi = J^T u / s with J = [[1, 0, -py], [0, 1, px]].
-                let (gx, gy) = (ux * inv, uy * inv);
-                g[0] += gx;
-                g[1] += gy;
-                g[2] += px * gy - py * gx;
-                // P = (I - u u^T / s^2) / s, then J^T P J.
-                let (pxx, pxy, pyy) =
-                    ((1.0 - gx * gx) * inv, -gx * gy * inv, (1.0 - gy * gy) * inv);
-                h[0] += pxx;
-                h[1] += pxy;
-                h[2] += -py * pxx + px * pxy;
-                h[3] += pyy;
-                h[4] += -py * pxy + px * pyy;
-                h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
+            for ((&p, &[ux, uy, s]), &inv) in block.iter().zip(&u).zip(&inv) {
+                add_point(p, [ux, uy], s, inv, &mut d, &mut g, &mut h);
             }
         }
         self.assemble(x, d, g, h)
     }
+}
+
+/// Adds point `[px, py]` to the sums of the objective `d`, its gradient `g` and its Hessian `h`
+/// (xx, xy, xw, yy, yw, ww), given its slip `u`, `s = |u|` (with the creep) and `inv = 1 / s`.
+#[inline(always)]
+fn add_point(
+    [px, py]: [f64; 2],
+    [ux, uy]: [f64; 2],
+    s: f64,
+    inv: f64,
+    d: &mut f64,
+    g: &mut [f64; 3],
+    h: &mut [f64; 6],
+) {
+    *d += s;
+    // d|u|/dxi = J^T u / s with J = [[1, 0, -py], [0, 1, px]].
+    let (gx, gy) = (ux * inv, uy * inv);
+    g[0] += gx;
+    g[1] += gy;
+    g[2] += px * gy - py * gx;
+    // P = (I - u u^T / s^2) / s, then J^T P J.
+    let (pxx, pxy, pyy) = ((1.0 - gx * gx) * inv, -gx * gy * inv, (1.0 - gy * gy) * inv);
+    h[0] += pxx;
+    h[1] += pxy;
+    h[2] += -py * pxx + px * pxy;
+    h[3] += pyy;
+    h[4] += -py * pxy + px * pyy;
+    h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
 }
 
 /// Solves `H x = b` for a symmetric 3x3 `H` given as (xx, xy, xw, yy, yw, ww).
@@ -481,19 +495,7 @@ mod tests {
         for &[px, py] in prob.pts {
             let (ux, uy) = (x[0] - x[2] * py, x[1] + x[2] * px);
             let s = (ux * ux + uy * uy + e2).sqrt();
-            d += s;
-            let inv = 1.0 / s;
-            let (gx, gy) = (ux * inv, uy * inv);
-            g[0] += gx;
-            g[1] += gy;
-            g[2] += px * gy - py * gx;
-            let (pxx, pxy, pyy) = ((1.0 - gx * gx) * inv, -gx * gy * inv, (1.0 - gy * gy) * inv);
-            h[0] += pxx;
-            h[1] += pxy;
-            h[2] += -py * pxx + px * pxy;
-            h[3] += pyy;
-            h[4] += -py * pxy + px * pyy;
-            h[5] += py * py * pxx - 2.0 * px * py * pxy + px * px * pyy;
+            add_point([px, py], [ux, uy], s, 1.0 / s, &mut d, &mut g, &mut h);
         }
         prob.assemble(x, d, g, h)
     }
