@@ -766,15 +766,10 @@ impl Occlusion {
                 && d - self.layout.radius <= self.p.contact_gap
                 && wrap_angle(b - s.bearing).abs() <= PUSHER_AHEAD_RAD
         };
-        let n = r
-            .scan_color
-            .len()
-            .min(r.scan_range.len())
-            .min(self.layout.scan_angles.len());
-        (0..n)
-            .filter(|&i| touching(r.scan_color[i], r.scan_range[i], self.layout.scan_angles[i]))
-            .min_by(|&i, &j| r.scan_range[i].total_cmp(&r.scan_range[j]))
-            .map(|i| self.layout.scan_angles[i])
+        scan_bins(r, &self.layout.scan_angles)
+            .filter(|&(c, d, b)| touching(c, d, b))
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .map(|(_, _, b)| b)
     }
 
     /// Bearing (robot frame) to the object's centre, with the beacon.
@@ -815,16 +810,11 @@ impl Occlusion {
                     }
                     let dir = ops::unit(*a) * *v;
                     other += dir;
-                    let is_robot = r
-                        .scan_color
-                        .iter()
-                        .zip(&r.scan_range)
-                        .zip(&self.layout.scan_angles)
-                        .any(|((c, d), b)| {
-                            is_robot_colour(*c, self.p.object_color)
-                                && wrap_angle(b - a).abs() < 0.5 + half_bin
-                                && d - self.layout.radius <= est + 0.06
-                        });
+                    let is_robot = scan_bins(r, &self.layout.scan_angles).any(|(c, d, b)| {
+                        is_robot_colour(c, self.p.object_color)
+                            && wrap_angle(b - a).abs() < 0.5 + half_bin
+                            && d - self.layout.radius <= est + 0.06
+                    });
                     if !is_robot {
                         wall += dir;
                     }
@@ -1105,14 +1095,26 @@ pub fn centroid_in_scan(
     angles: &[f32],
     wanted: impl Fn(Color) -> bool,
 ) -> Option<f32> {
-    let n = r.scan_color.len().min(r.scan_range.len()).min(angles.len());
     let mut sum = Vec2::ZERO;
-    let mut any = false;
-    for i in (0..n).filter(|&i| wanted(r.scan_color[i])) {
-        sum += ops::unit(angles[i]) * r.scan_range[i];
-        any = true;
+    for (c, d, a) in scan_bins(r, angles) {
+        if wanted(c) {
+            sum += ops::unit(a) * d;
+        }
     }
-    (any && sum.length() > 1e-6).then(|| ops::angle_of(sum))
+    // No bin wanted leaves the sum zero.
+    (sum.length() > 1e-6).then(|| ops::angle_of(sum))
+}
+
+/// The colour scan's bins as (colour, range, bearing), as far as readings and layout agree.
+fn scan_bins<'a>(
+    r: &'a Readings,
+    angles: &'a [f32],
+) -> impl Iterator<Item = (Color, f32, f32)> + 'a {
+    r.scan_color
+        .iter()
+        .zip(&r.scan_range)
+        .zip(angles)
+        .map(|((c, d), a)| (*c, *d, *a))
 }
 
 /// The nearest thing the colour scan shows in a colour `wanted` accepts: its bearing (robot
@@ -1342,8 +1344,8 @@ impl Controller for Occlusion {
                     // Camera: a pusher (red LED) right ahead with the object just beyond it
                     // and the goal hidden: push it, so that pushers stack in rows as they do
                     // when the beacon cannot tell a pusher from the object.
-                    let stack = surface.and_then(|s| self.pusher_ahead(r, s));
-                    if hidden && !gated && stack.is_some() {
+                    let stack = || surface.and_then(|s| self.pusher_ahead(r, s));
+                    if hidden && !gated && stack().is_some() {
                         self.set_state(State::Push, r);
                         continue;
                     }
@@ -1595,10 +1597,11 @@ mod tests {
         };
         // A flat face 0.1 m ahead, seen out to 1 m either side: straight ahead.
         let face = scan(-80, 80, &|a| (0.1 / ops::cos(a)).min(1.0));
-        assert!(centroid_in_scan(&face, &angles, green).unwrap().abs() < 1e-4);
+        let ahead = centroid_in_scan(&face, &angles, green).expect("the face is in sight");
+        assert!(ahead.abs() < 1e-4, "{ahead}");
         // At the face's left end: the bulk lies to the right, not along the normal.
         let end = scan(-80, 0, &|a| (0.1 / ops::cos(a)).min(1.0));
-        let b = centroid_in_scan(&end, &angles, green).unwrap();
+        let b = centroid_in_scan(&end, &angles, green).expect("the face is in sight");
         assert!((-1.2..-0.5).contains(&b), "{b}");
         // Nothing of the object in sight: no direction.
         let none = scan(200, 200, &|_| 1.0);
