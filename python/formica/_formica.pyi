@@ -40,6 +40,7 @@ class Layout:
     radius: float
     wheel_distance: float
     proximity_range: float
+    beacon_radius: float | None
     names: list[str]
     slots: dict[str, tuple[int, int]]
     size: int

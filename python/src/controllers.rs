@@ -291,6 +291,10 @@ pub struct PyLayout {
     /// Proximity range beyond the body (m).
     #[pyo3(get)]
     proximity_range: f32,
+    /// Largest radius (m) of the objects the beacon tracks, as the positioning system knows
+    /// them (`None` without such an object).
+    #[pyo3(get)]
+    beacon_radius: Option<f32>,
     shape: Arc<Shape>,
 }
 
@@ -303,6 +307,7 @@ impl PyLayout {
             radius: layout.radius,
             wheel_distance: layout.wheel_distance,
             proximity_range: layout.proximity_range,
+            beacon_radius: layout.beacon_radius,
             shape,
         }
     }

@@ -282,3 +282,21 @@ def test_a_per_robot_controller_can_switch_its_motors_off():
     formica.register_controller("py-badcoast", BadCoast)
     with pytest.raises(TypeError, match="py-badcoast.*coast"):
         formica.World(scenario("py-badcoast", count=1)).step(2)
+
+
+def test_the_layout_gives_the_radius_of_the_object_the_beacon_tracks():
+    seen = []
+
+    class Sizer:
+        needs = ()
+
+        def __init__(self, layout):
+            seen.append(layout.beacon_radius)
+
+        def step(self, r):
+            return 0.0, 0.0
+
+    formica.register_controller("py-sizer", Sizer)
+    formica.World(scenario("py-sizer", count=2), seed=1, duration=1).step(1)
+    # The seed's 0.5 m box: half its diagonal.
+    assert len(seen) == 2 and all(abs(s - 0.5 * 2**0.5 / 2) < 1e-3 for s in seen)

@@ -159,21 +159,29 @@ fn object_radius(w: &World, i: usize) -> f32 {
         .fold(0.0, f32::max)
 }
 
-/// For an `occlusion` group with beacon perception: a warning if its `object_reach` is shorter
-/// than the target object's radius plus 0.2 m (by more than a centimetre), the controller's
-/// documented rule (pushers near the object's ends would take it for an obstacle).
+/// For an `occlusion` group with beacon perception: a warning if the `object_reach` it sets is
+/// shorter than the target object's radius plus 0.2 m (by more than a centimetre), the
+/// controller's documented rule (pushers near the object's ends would take it for an
+/// obstacle). Left out, the reach is sized to the object and never warned about.
 fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
-    use formica::controllers::occlusion::{Params, Perception};
+    use formica::controllers::occlusion::{self, Params, Perception};
     if w.groups[g].controller != "occlusion" {
         return None;
     }
-    let p: Params =
-        formica::controller::parse_params_with_defaults(group_params(sc, g).as_ref()).ok()?;
+    let params = group_params(sc, g);
+    let mut p: Params = formica::controller::parse_params_with_defaults(params.as_ref()).ok()?;
+    if !params
+        .as_ref()
+        .is_some_and(|t| t.contains_key("object_reach"))
+    {
+        p.object_reach = occlusion::default_object_reach(&w.groups[g].layout);
+    }
     let t = w.target?;
     let radius = object_radius(w, t);
     // Within a centimetre: the advice is printed to the centimetre, and a reach set to it (or
     // to radius + 0.2 computed in decimal) must not be warned about again.
-    if p.perception != Perception::Beacon || p.object_reach + 0.01 >= radius + 0.2 {
+    let advised = radius + occlusion::REACH_BEYOND_RADIUS_M;
+    if p.perception != Perception::Beacon || p.object_reach + 0.01 >= advised {
         return None;
     }
     // A robot going round the object keeps its centre its radius and `circle_gap` off the
@@ -189,8 +197,7 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
     Some(format!(
         "object_reach is {} m but the object's radius is {radius:.2} m; {effect} (set \
          robots.{g}.params.object_reach to at least {:.2})",
-        p.object_reach,
-        radius + 0.2
+        p.object_reach, advised
     ))
 }
 

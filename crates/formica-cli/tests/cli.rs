@@ -332,8 +332,9 @@ fn a_closed_stdout_neither_panics_nor_loses_the_out_files() {
 
 #[test]
 fn check_and_run_warn_when_occlusion_cannot_reach_round_the_object() {
-    // The U's radius is 0.62 m: `occlusion`'s default object_reach (0.6 m) is too short, as
-    // its documentation's rule (radius + 0.2 m) says; 0.85 m is enough. `run` warns too.
+    // The U's radius is 0.62 m: an object_reach of 0.6 m is too short, as the controller's
+    // rule (radius + 0.2 m) says; 0.85 m is enough, and so is the default, which is sized to
+    // the object the beacon tracks (0.82 m here). `run` warns too.
     let u = std::fs::read_to_string(repo("scenarios/fill-transport-u.toml")).unwrap();
     let dir = tmp("reach");
     let text = |params: &str| {
@@ -343,34 +344,43 @@ fn check_and_run_warn_when_occlusion_cannot_reach_round_the_object() {
         )
     };
     let warning = "warning: object_reach is 0.6 m but the object's radius is 0.62 m";
-    let short = check_text(&dir, &text(""));
+    let short = check_text(&dir, &text("object_reach = 0.6"));
     assert!(
         short.contains(warning) && short.contains("at least 0.82"),
         "{short}"
     );
+    let default = check_text(&dir, &text(""));
+    assert!(!default.contains("warning"), "{default}");
     let enough = check_text(&dir, &text("object_reach = 0.85"));
     assert!(!enough.contains("warning"), "{enough}");
     // The advice itself, printed to the centimetre, is enough.
     let advised = check_text(&dir, &text("object_reach = 0.82"));
     assert!(!advised.contains("warning"), "{advised}");
-    let run_short = run_briefly_stderr(&dir.join("short.toml"), &text(""));
+    let run_short = run_briefly_stderr(&dir.join("short.toml"), &text("object_reach = 0.6"));
     assert!(
         run_short.contains(&warning["warning: ".len()..]),
         "{run_short}"
     );
-    let run_enough = run_briefly_stderr(&dir.join("enough.toml"), &text("object_reach = 0.85"));
-    assert!(!run_enough.contains("warning"), "{run_enough}");
+    let run_default = run_briefly_stderr(&dir.join("default.toml"), &text(""));
+    assert!(!run_default.contains("warning"), "{run_default}");
     // The U's back is within reach of robots going round it: they push, slowly.
     assert!(
         short.contains("near its ends") && !short.contains("fails"),
         "{short}"
     );
-    // A 1.0 m box: robots going round it are 0.60 m from its centre at best, beyond 0.6 m
-    // with their gap, so none pushes (seeds 1-10: 0 delivered; with 0.91, 10 of 10).
+    // A 1.0 m box with a reach of 0.6 m: robots going round it are 0.60 m from its centre at
+    // best, beyond 0.6 m with their gap, so none pushes (seeds 1-10: 0 delivered; with 0.91,
+    // or the default, 10 of 10).
     let seed = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
     let big = seed.replace("box = [0.5, 0.5]", "box = [1.0, 1.0]");
     assert_ne!(big, seed);
-    let fails = check_text(&dir, &big);
+    assert!(!check_text(&dir, &big).contains("warning"));
+    let short_big = big.replace(
+        "controller = \"occlusion\"",
+        "controller = \"occlusion\"\nparams = { object_reach = 0.6 }",
+    );
+    assert_ne!(short_big, big);
+    let fails = check_text(&dir, &short_big);
     assert!(
         fails.contains("transport fails") && fails.contains("at least 0.91"),
         "{fails}"

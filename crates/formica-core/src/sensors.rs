@@ -94,6 +94,11 @@ pub struct SensorLayout {
     pub wheel_distance: f32,
     /// Proximity range beyond the body (m).
     pub proximity_range: f32,
+    /// The largest radius (m) of the objects the beacon tracks (the farthest point of an
+    /// outline from its centre of mass), as the positioning system that gives their centres
+    /// knows them; `None` with no such object, or outside a world. Controllers may size
+    /// themselves to it, as an experimenter would set their parameters by hand.
+    pub beacon_radius: Option<f32>,
 }
 
 impl SensorLayout {
@@ -112,6 +117,7 @@ impl SensorLayout {
             radius: model.radius,
             wheel_distance: model.wheel_distance,
             proximity_range: model.proximity_range,
+            beacon_radius: None,
         }
     }
 }

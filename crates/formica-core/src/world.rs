@@ -59,6 +59,18 @@ impl Object {
     }
 }
 
+/// The objects that carry a beacon: every movable one (the target object when none is).
+fn beacon_objects(objects: &[Object], target: Option<usize>) -> impl Iterator<Item = usize> + '_ {
+    let any_movable = objects.iter().any(|o| o.movable);
+    (0..objects.len()).filter(move |&i| {
+        if any_movable {
+            objects[i].movable
+        } else {
+            Some(i) == target
+        }
+    })
+}
+
 /// Per-group settings shared by its robots.
 pub struct Group {
     /// Robot model.
@@ -336,6 +348,17 @@ impl World {
             .iter()
             .position(|o| o.movable)
             .or(if objects.is_empty() { None } else { Some(0) });
+        let beacon_radius = beacon_objects(&objects, target)
+            .map(|i| {
+                let (o, c) = (&objects[i], physics.center_of_mass(objects[i].body));
+                let pose = physics.pose(o.body);
+                o.outlines()
+                    .into_iter()
+                    .flatten()
+                    .map(|p| (pose.world_from_local(p) - c).length())
+                    .fold(0.0, f32::max)
+            })
+            .reduce(f32::max);
 
         let lights = spec
             .lights
@@ -376,7 +399,10 @@ impl World {
                 sc.error_at(grp.model.span(), format!("robots[{g}].model: {m}"))
             })?;
             let sensors = grp.sensors.resolve(model.kind);
-            let layout = SensorLayout::of(&model, &sensors);
+            let layout = SensorLayout {
+                beacon_radius,
+                ..SensorLayout::of(&model, &sensors)
+            };
             let name = ov
                 .controller
                 .clone()
@@ -703,22 +729,10 @@ impl World {
         } else {
             self.shadows.clear();
         }
-        // Every movable object carries a beacon (the target object when none is movable).
         let physics = &self.physics;
-        let any_movable = self.objects.iter().any(|o| o.movable);
-        let target = self.target;
         self.beacons.set(
-            self.objects
-                .iter()
-                .enumerate()
-                .filter(|&(i, o)| {
-                    if any_movable {
-                        o.movable
-                    } else {
-                        Some(i) == target
-                    }
-                })
-                .map(|(_, o)| physics.center_of_mass(o.body)),
+            beacon_objects(&self.objects, self.target)
+                .map(|i| physics.center_of_mass(self.objects[i].body)),
         );
         let objects = &self.objects;
         let walls = &self.walls;

@@ -102,6 +102,39 @@ fn convex_objects_get_closer_to_the_goal_in_most_ticks_once_pushed() {
 }
 
 #[test]
+fn occlusion_sizes_its_reach_to_the_object_the_beacon_tracks() {
+    // A 1.0 m box: the middle of its faces is 0.5 m from the centre, so robots going round it
+    // stay beyond 0.6 m, the reach that suits the seed's 0.5 m box, and never push it. Left
+    // out of the parameters, the reach is the box's radius (0.71 m) plus 0.2 m.
+    let text = shipped_text("seed-transport.toml").replace("box = [0.5, 0.5]", "box = [1.0, 1.0]");
+    let sc = Scenario::parse(&text, "big.toml").unwrap_or_else(|e| panic!("{e}"));
+    for seed in 1..=3 {
+        let mut run = start(&sc, seed);
+        let radius = run.world.groups[0].layout.beacon_radius.unwrap_or(0.0);
+        assert!((radius - 0.5 * 2f32.sqrt()).abs() < 1e-3, "{radius}");
+        assert_eq!(run.run_to_end(), Outcome::Success, "seed {seed}");
+    }
+    let short = text.replace(
+        "controller = \"occlusion\"",
+        "controller = \"occlusion\"\nparams = { object_reach = 0.6 }",
+    );
+    let sc = Scenario::parse(&short, "short.toml").unwrap_or_else(|e| panic!("{e}"));
+    let mut run = start(&sc, 1);
+    assert_ne!(
+        run.run_to_end(),
+        Outcome::Success,
+        "a short reach set by hand"
+    );
+    // The seed's own box keeps 0.6 m (radius 0.35 m): its results do not move.
+    let run = start(&shipped("seed-transport.toml"), 1);
+    let layout = &run.world.groups[0].layout;
+    assert_eq!(
+        formica::controllers::occlusion::default_object_reach(layout),
+        0.6
+    );
+}
+
+#[test]
 fn camera_robots_transport_too() {
     let text = shipped_text("seed-transport.toml").replace(
         "controller = \"occlusion\"",

@@ -182,11 +182,12 @@ pub struct Params {
     /// Beacon perception: within this distance of the object's centre (m), proximity hits on
     /// the side facing the centre are taken to be the object; farther out every hit is an
     /// obstacle, and a circling robot counts as lost and approaches again. Should exceed the
-    /// object's largest radius plus about 0.2 m (`formica check` and `run` warn otherwise):
-    /// on seed-transport with a 0.9 m box (radius 0.64 m), the median time over seeds 1-20 is
-    /// 294 s with the default and 74 s with 0.85, every trial a success; a 1.0 m box, the middle
-    /// of whose faces is out of reach too, is never pushed (0 of 10; 10 of 10 with 0.91).
-    /// Default 0.6.
+    /// object's largest radius plus about 0.2 m (`formica check` and `run` warn when a value
+    /// set is shorter): on seed-transport with a 0.9 m box (radius 0.64 m), the median time
+    /// over seeds 1-20 is 294 s with 0.6 and 74 s with 0.85, every trial a success; a 1.0 m
+    /// box, the middle of whose faces is out of reach too, is never pushed with 0.6 (0 of 10;
+    /// 10 of 10 with 0.91). Default 0.6, or the tracked object's radius plus 0.2 m if that is
+    /// more ([`default_object_reach`]; results format 21: 0.6 before).
     pub object_reach: f32,
     /// Largest angle (deg) between the goal's direction (triangulated from the bearings seen
     /// so far) and the object's direction for a hidden goal to count as hidden *by the object*
@@ -284,13 +285,31 @@ pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
-    let p: Params = parse_params_with_defaults(params)?;
+    let mut p: Params = parse_params_with_defaults(params)?;
+    if !params.is_some_and(|t| t.contains_key("object_reach")) {
+        p.object_reach = default_object_reach(layout);
+    }
     p.validate()?;
     let needs = Occlusion::needs(&p);
     let (p, layout) = (Arc::new(p), Arc::new(layout.clone()));
     Ok(ControllerFactory::new(needs, move || {
         Box::new(Occlusion::shared(p.clone(), layout.clone()))
     }))
+}
+
+/// How far beyond the object's radius `object_reach` should reach (m): the robot's body and
+/// its gap as it goes round, with room for the beacon's noise.
+pub const REACH_BEYOND_RADIUS_M: f32 = 0.2;
+
+/// `object_reach` when the parameters leave it out: 0.6 m, or the radius of the objects the
+/// beacon tracks ([`SensorLayout::beacon_radius`]) plus [`REACH_BEYOND_RADIUS_M`] if that is
+/// more. The positioning system that tells robots where the object is knows its size too.
+pub fn default_object_reach(layout: &SensorLayout) -> f32 {
+    let base = Params::default().object_reach;
+    match layout.beacon_radius {
+        Some(r) if r + REACH_BEYOND_RADIUS_M > base => r + REACH_BEYOND_RADIUS_M,
+        _ => base,
+    }
 }
 
 impl Params {
