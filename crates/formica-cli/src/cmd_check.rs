@@ -1,6 +1,7 @@
 //! `formica check SCENARIO`: validate a file and describe what it sets up.
 
 use crate::CliError;
+use formica::controllers::occlusion;
 use formica::experiment::{object_size, Run, RunOptions};
 use formica::geometry::Vec2;
 use formica::world::World;
@@ -91,6 +92,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
             grp.model_name, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera,
             needs.scan, grp.sensors.preset.name()
         );
+        if let Some((p, true)) = occlusion_params(&sc, w, g) {
+            if p.perception == occlusion::Perception::Beacon && p.object_reach > 0.6 {
+                outln!(
+                    "    object_reach {:.2} m: sized to the object the beacon tracks (its radius + {} m)",
+                    p.object_reach,
+                    occlusion::REACH_BEYOND_RADIUS_M
+                );
+            }
+        }
         if let Some(warning) = formica::world::sensor_warning(grp) {
             outln!("    warning: {warning}");
         }
@@ -164,24 +174,13 @@ fn object_radius(w: &World, i: usize) -> f32 {
 /// controller's documented rule (pushers near the object's ends would take it for an
 /// obstacle). Left out, the reach is sized to the object and never warned about.
 fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
-    use formica::controllers::occlusion::{self, Params, Perception};
-    if w.groups[g].controller != "occlusion" {
-        return None;
-    }
-    let params = group_params(sc, g);
-    let mut p: Params = formica::controller::parse_params_with_defaults(params.as_ref()).ok()?;
-    if !params
-        .as_ref()
-        .is_some_and(|t| t.contains_key("object_reach"))
-    {
-        p.object_reach = occlusion::default_object_reach(&w.groups[g].layout);
-    }
+    let (p, _) = occlusion_params(sc, w, g)?;
     let t = w.target?;
     let radius = object_radius(w, t);
     // Within a centimetre: the advice is printed to the centimetre, and a reach set to it (or
     // to radius + 0.2 computed in decimal) must not be warned about again.
     let advised = radius + occlusion::REACH_BEYOND_RADIUS_M;
-    if p.perception != Perception::Beacon || p.object_reach + 0.01 >= advised {
+    if p.perception != occlusion::Perception::Beacon || p.object_reach + 0.01 >= advised {
         return None;
     }
     // A robot going round the object keeps its centre its radius and `circle_gap` off the
@@ -199,6 +198,22 @@ fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
          robots.{g}.params.object_reach to at least {:.2})",
         p.object_reach, advised
     ))
+}
+
+/// An `occlusion` group's parameters as its robots use them (`object_reach`, left out, sized to
+/// the object the beacon tracks), and whether `object_reach` was left out.
+fn occlusion_params(sc: &Scenario, w: &World, g: usize) -> Option<(occlusion::Params, bool)> {
+    if w.groups[g].controller != "occlusion" {
+        return None;
+    }
+    let params = group_params(sc, g);
+    let mut p: occlusion::Params =
+        formica::controller::parse_params_with_defaults(params.as_ref()).ok()?;
+    let auto = !params.is_some_and(|t| t.contains_key("object_reach"));
+    if auto {
+        p.object_reach = occlusion::default_object_reach(&w.groups[g].layout);
+    }
+    Some((p, auto))
 }
 
 /// Smallest distance from object `i`'s centre to its outline (m): to the nearest point of its

@@ -350,7 +350,10 @@ fn check_and_run_warn_when_occlusion_cannot_reach_round_the_object() {
         "{short}"
     );
     let default = check_text(&dir, &text(""));
-    assert!(!default.contains("warning"), "{default}");
+    assert!(
+        !default.contains("warning") && default.contains("object_reach 0.82 m: sized to"),
+        "{default}"
+    );
     let enough = check_text(&dir, &text("object_reach = 0.85"));
     assert!(!enough.contains("warning"), "{enough}");
     // The advice itself, printed to the centimetre, is enough.

@@ -186,8 +186,9 @@ pub struct Params {
     /// set is shorter): on seed-transport with a 0.9 m box (radius 0.64 m), the median time
     /// over seeds 1-20 is 294 s with 0.6 and 74 s with 0.85, every trial a success; a 1.0 m
     /// box, the middle of whose faces is out of reach too, is never pushed with 0.6 (0 of 10;
-    /// 10 of 10 with 0.91). Default 0.6, or the tracked object's radius plus 0.2 m if that is
-    /// more ([`default_object_reach`]; results format 21: 0.6 before).
+    /// 10 of 10 with 0.91). Default 0.6; the `occlusion` controller, given no value, takes the
+    /// tracked object's radius plus 0.2 m if that is more ([`default_object_reach`], since
+    /// results format 21), and `fill-transport`'s pushers measure the object on their lap.
     pub object_reach: f32,
     /// Largest angle (deg) between the goal's direction (triangulated from the bearings seen
     /// so far) and the object's direction for a hidden goal to count as hidden *by the object*
