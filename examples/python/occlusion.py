@@ -136,7 +136,7 @@ class Occlusion:
         escape_s=2.0,
         block_s=3.0,
         reverse_s=20.0,
-        object_reach=0.6,
+        object_reach=None,
         occluder_angle_deg=30.0,
     ):
         self.layout = layout
@@ -153,6 +153,10 @@ class Occlusion:
         self.avoid_threshold = avoid_threshold
         self.stuck_s, self.push_stuck_s, self.stuck_dist = stuck_s, push_stuck_s, stuck_dist
         self.escape_s, self.block_s, self.reverse_s = escape_s, block_s, reverse_s
+        if object_reach is None:
+            # As the Rust controller: 0.6 m, or the tracked object's radius + 0.2 m if more.
+            radius = layout.beacon_radius
+            object_reach = 0.6 if radius is None or radius + 0.2 <= 0.6 else radius + 0.2
         self.object_reach = object_reach
         self.occluder = math.radians(occluder_angle_deg)
         # Behaviour state.

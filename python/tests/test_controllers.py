@@ -299,4 +299,4 @@ def test_the_layout_gives_the_radius_of_the_object_the_beacon_tracks():
     formica.register_controller("py-sizer", Sizer)
     formica.World(scenario("py-sizer", count=2), seed=1, duration=1).step(1)
     # The seed's 0.5 m box: half its diagonal.
-    assert len(seen) == 2 and all(abs(s - 0.5 * 2**0.5 / 2) < 1e-3 for s in seen)
+    assert len(seen) >= 2 and all(abs(s - 0.5 * 2**0.5 / 2) < 1e-3 for s in seen)
