@@ -93,7 +93,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
             needs.scan, grp.sensors.preset.name()
         );
         if let Some((p, true)) = occlusion_params(&sc, w, g) {
-            if p.perception == occlusion::Perception::Beacon && p.object_reach > 0.6 {
+            if p.perception == occlusion::Perception::Beacon
+                && p.object_reach > occlusion::Params::default().object_reach
+            {
                 outln!(
                     "    object_reach {:.2} m: sized to the object the beacon tracks (its radius + {} m)",
                     p.object_reach,
@@ -159,16 +161,6 @@ fn sweep_file_hint(path: &std::path::Path) -> Option<String> {
     })
 }
 
-/// Largest distance from object `i`'s centre to its outline (m).
-fn object_radius(w: &World, i: usize) -> f32 {
-    let c = w.object_center(i);
-    w.object_outlines(i)
-        .into_iter()
-        .flatten()
-        .map(|p| (p - c).length())
-        .fold(0.0, f32::max)
-}
-
 /// For an `occlusion` group with beacon perception: a warning if the `object_reach` it sets is
 /// shorter than the target object's radius plus 0.2 m (by more than a centimetre), the
 /// controller's documented rule (pushers near the object's ends would take it for an
@@ -176,7 +168,7 @@ fn object_radius(w: &World, i: usize) -> f32 {
 fn reach_warning(sc: &Scenario, w: &World, g: usize) -> Option<String> {
     let (p, _) = occlusion_params(sc, w, g)?;
     let t = w.target?;
-    let radius = object_radius(w, t);
+    let radius = w.object_radius(t);
     // Within a centimetre: the advice is printed to the centimetre, and a reach set to it (or
     // to radius + 0.2 computed in decimal) must not be warned about again.
     let advised = radius + occlusion::REACH_BEYOND_RADIUS_M;
@@ -207,13 +199,8 @@ fn occlusion_params(sc: &Scenario, w: &World, g: usize) -> Option<(occlusion::Pa
         return None;
     }
     let params = group_params(sc, g);
-    let mut p: occlusion::Params =
-        formica::controller::parse_params_with_defaults(params.as_ref()).ok()?;
-    let auto = !params.is_some_and(|t| t.contains_key("object_reach"));
-    if auto {
-        p.object_reach = occlusion::default_object_reach(&w.groups[g].layout);
-    }
-    Some((p, auto))
+    let p = occlusion::params_for(params.as_ref(), &w.groups[g].layout).ok()?;
+    Some((p, !params.is_some_and(|t| t.contains_key("object_reach"))))
 }
 
 /// Smallest distance from object `i`'s centre to its outline (m): to the nearest point of its

@@ -59,6 +59,18 @@ impl Object {
     }
 }
 
+impl Object {
+    /// Its radius (m): the farthest point of its outline from its centre of mass.
+    pub fn radius(&self, physics: &Physics) -> f32 {
+        let (pose, c) = (physics.pose(self.body), physics.center_of_mass(self.body));
+        self.outlines()
+            .into_iter()
+            .flatten()
+            .map(|p| (pose.world_from_local(p) - c).length())
+            .fold(0.0, f32::max)
+    }
+}
+
 /// The objects that carry a beacon: every movable one (the target object when none is).
 fn beacon_objects(objects: &[Object], target: Option<usize>) -> impl Iterator<Item = usize> + '_ {
     let any_movable = objects.iter().any(|o| o.movable);
@@ -349,15 +361,7 @@ impl World {
             .position(|o| o.movable)
             .or(if objects.is_empty() { None } else { Some(0) });
         let beacon_radius = beacon_objects(&objects, target)
-            .map(|i| {
-                let (o, c) = (&objects[i], physics.center_of_mass(objects[i].body));
-                let pose = physics.pose(o.body);
-                o.outlines()
-                    .into_iter()
-                    .flatten()
-                    .map(|p| (pose.world_from_local(p) - c).length())
-                    .fold(0.0, f32::max)
-            })
+            .map(|i| objects[i].radius(&physics))
             .reduce(f32::max);
 
         let lights = spec
@@ -861,6 +865,11 @@ impl World {
     /// Model of robot `i`.
     pub fn robot_model(&self, i: usize) -> &RobotModel {
         &self.groups[self.robots[i].group].model
+    }
+
+    /// Radius of object `i` (m): the farthest point of its outline from its centre of mass.
+    pub fn object_radius(&self, i: usize) -> f32 {
+        self.objects[i].radius(&self.physics)
     }
 
     /// Pose of object `i`'s body.

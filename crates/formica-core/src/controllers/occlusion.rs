@@ -286,10 +286,7 @@ pub fn factory(
     params: Option<&toml::Table>,
     layout: &SensorLayout,
 ) -> Result<ControllerFactory, String> {
-    let mut p: Params = parse_params_with_defaults(params)?;
-    if !params.is_some_and(|t| t.contains_key("object_reach")) {
-        p.object_reach = default_object_reach(layout);
-    }
+    let p = params_for(params, layout)?;
     p.validate()?;
     let needs = Occlusion::needs(&p);
     let (p, layout) = (Arc::new(p), Arc::new(layout.clone()));
@@ -311,6 +308,16 @@ pub fn default_object_reach(layout: &SensorLayout) -> f32 {
         Some(r) if r + REACH_BEYOND_RADIUS_M > base => r + REACH_BEYOND_RADIUS_M,
         _ => base,
     }
+}
+
+/// The parameters robots with `layout` use for the scenario's `params`: the defaults for what
+/// it leaves out, `object_reach` sized by [`default_object_reach`].
+pub fn params_for(params: Option<&toml::Table>, layout: &SensorLayout) -> Result<Params, String> {
+    let mut p: Params = parse_params_with_defaults(params)?;
+    if !params.is_some_and(|t| t.contains_key("object_reach")) {
+        p.object_reach = default_object_reach(layout);
+    }
+    Ok(p)
 }
 
 impl Params {
