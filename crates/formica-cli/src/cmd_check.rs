@@ -200,7 +200,7 @@ fn occlusion_params(sc: &Scenario, w: &World, g: usize) -> Option<(occlusion::Pa
     }
     let params = group_params(sc, g);
     let p = occlusion::params_for(params.as_ref(), &w.groups[g].layout).ok()?;
-    Some((p, !params.is_some_and(|t| t.contains_key("object_reach"))))
+    Some((p, occlusion::reach_left_out(params.as_ref())))
 }
 
 /// Smallest distance from object `i`'s centre to its outline (m): to the nearest point of its

@@ -57,9 +57,7 @@ impl Object {
     pub fn outlines(&self) -> Vec<Vec<Vec2>> {
         part_outlines(&self.parts, 24)
     }
-}
 
-impl Object {
     /// Its radius (m): the farthest point of its outline from its centre of mass.
     pub fn radius(&self, physics: &Physics) -> f32 {
         let (pose, c) = (physics.pose(self.body), physics.center_of_mass(self.body));

@@ -314,10 +314,15 @@ pub fn default_object_reach(layout: &SensorLayout) -> f32 {
 /// it leaves out, `object_reach` sized by [`default_object_reach`].
 pub fn params_for(params: Option<&toml::Table>, layout: &SensorLayout) -> Result<Params, String> {
     let mut p: Params = parse_params_with_defaults(params)?;
-    if !params.is_some_and(|t| t.contains_key("object_reach")) {
+    if reach_left_out(params) {
         p.object_reach = default_object_reach(layout);
     }
     Ok(p)
+}
+
+/// Whether `params` leave `object_reach` out, so that [`params_for`] sizes it to the object.
+pub fn reach_left_out(params: Option<&toml::Table>) -> bool {
+    !params.is_some_and(|t| t.contains_key("object_reach"))
 }
 
 impl Params {
@@ -1624,6 +1629,8 @@ mod tests {
         };
         // A flat face 0.1 m ahead, seen out to 1 m either side: straight ahead.
         let face = scan(-80, 80, &|a| (0.1 / ops::cos(a)).min(1.0));
+        // Both scans show green bins ahead of the robot: their sum is not zero, so the
+        // centroid exists.
         let ahead = centroid_in_scan(&face, &angles, green).expect("the face is in sight");
         assert!(ahead.abs() < 1e-4, "{ahead}");
         // At the face's left end: the bulk lies to the right, not along the normal.
