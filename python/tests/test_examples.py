@@ -37,3 +37,12 @@ def test_the_readme_example_runs():
     )
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True, capture_output=True, text=True)
     assert out.stdout.strip().endswith("(30, 3) (30, 24)")
+
+
+def test_the_random_study_is_what_its_script_draws():
+    # experiments/random.toml is written by experiments/random-cases.py (seed 7): the committed
+    # cases must be the script's, so that anyone can see how they were drawn and draw more.
+    out = subprocess.run(
+        [sys.executable, "experiments/random-cases.py"], cwd=ROOT, check=True, capture_output=True, text=True
+    )
+    assert out.stdout == (ROOT / "experiments/random.toml").read_text()
