@@ -19,6 +19,9 @@ controllers, with their defaults and the Khepera IV noise preset, where no one l
   random) of which at least one cuts the straight line from the object to the goal, the object
   at least 0.45 m from every bar, and a way round for a disc of 0.25 m radius (the box's
   half-diagonal is 0.28 m: it may have to turn to pass) checked on a 5 cm grid.
+- The twelve shapes again, in the same places, with `occlusion` finding the object by its colour
+  in the colour scan instead of being told its centre (`perception = "camera"`), appended
+  last so that the trials before keep their numbers.
 """
 import math
 import random
@@ -122,6 +125,7 @@ def main():
     print('"robots.0.sensors.noise" = "realistic"')
     print()
     print("# --- random shapes at random places in the open: occlusion and fill-transport ------------")
+    drawn = []
     for i in range(SHAPES):
         kind, pts = notched(rng) if i % 2 == 0 else star(rng)
         yaw = rng.uniform(0.0, 360.0)
@@ -132,6 +136,7 @@ def main():
             goal = (rng.uniform(-2.65, 2.65), rng.uniform(-1.65, 1.65))
             if math.dist(at, goal) >= 2.0:
                 break
+        drawn.append((kind, pts, yaw, at, goal))
         for controller in ("occlusion", "fill-transport"):
             print()
             print("[[cases]]")
@@ -182,6 +187,19 @@ def main():
         print('"robots.0.placement" = { random = { min = [-1.9, -1.9], max = [1.9, 1.9] } }')
         print(f'"walls" = [{walls}]')
         print(f'"objects.0.at" = [{obj[0]:.2f}, {obj[1]:.2f}]')
+        print(f'"lights.0.at" = [{goal[0]:.2f}, {goal[1]:.2f}]')
+    print()
+    print("# --- the same shapes and places, occlusion without the beacon (finds the object by its colour) --")
+    for i, (kind, pts, yaw, at, goal) in enumerate(drawn):
+        print()
+        print("[[cases]]")
+        print(f'label = "shape {i}: {kind}, occlusion, camera"')
+        print('scenario = "../scenarios/fill-transport-h.toml"')
+        print('"robots.0.controller" = "occlusion"')
+        print('"robots.0.params.perception" = "camera"')
+        print(f'"objects.0.shape" = {{ polygon = {pts_toml(pts)} }}')
+        print(f'"objects.0.yaw_deg" = {yaw:.1f}')
+        print(f'"objects.0.at" = [{at[0]:.2f}, {at[1]:.2f}]')
         print(f'"lights.0.at" = [{goal[0]:.2f}, {goal[1]:.2f}]')
 
 
