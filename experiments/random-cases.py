@@ -70,6 +70,22 @@ def pts_toml(pts):
     return "[" + ", ".join(f"[{p[0]:.3f}, {p[1]:.3f}]" for p in pts) + "]"
 
 
+def print_shape_case(label, controller, shape, extra=()):
+    """One case of a drawn shape: `shape` is (pts, yaw, at, goal); `extra` more key lines."""
+    pts, yaw, at, goal = shape
+    print()
+    print("[[cases]]")
+    print(f'label = "{label}"')
+    print('scenario = "../scenarios/fill-transport-h.toml"')
+    print(f'"robots.0.controller" = "{controller}"')
+    for line in extra:
+        print(line)
+    print(f'"objects.0.shape" = {{ polygon = {pts_toml(pts)} }}')
+    print(f'"objects.0.yaw_deg" = {yaw:.1f}')
+    print(f'"objects.0.at" = [{at[0]:.2f}, {at[1]:.2f}]')
+    print(f'"lights.0.at" = [{goal[0]:.2f}, {goal[1]:.2f}]')
+
+
 def rect_distance(p, bar):
     """Distance from point p to a (possibly turned) rectangle; 0 inside."""
     (cx, cy), (sx, sy), yaw = bar
@@ -115,7 +131,7 @@ def way_round(obj, goal, bars, half, clearance):
 def main():
     rng = random.Random(SEED)
     print("# Objects, placements and obstacle maps drawn at random by experiments/random-cases.py")
-    print("# (seed 7; rerun it to get this file back). Report: results/random/summary.md;")
+    print(f"# (seed {SEED}; rerun it to get this file back). Report: results/random/summary.md;")
     print("# discussion on docs/src/results/unseen.md. 10 seeds per case.")
     print("#   formica sweep experiments/random.toml --db random.db && formica report random.db --out results/random")
     print('name = "random"')
@@ -136,17 +152,9 @@ def main():
             goal = (rng.uniform(-2.65, 2.65), rng.uniform(-1.65, 1.65))
             if math.dist(at, goal) >= 2.0:
                 break
-        drawn.append((kind, pts, yaw, at, goal))
+        drawn.append((kind, (pts, yaw, at, goal)))
         for controller in ("occlusion", "fill-transport"):
-            print()
-            print("[[cases]]")
-            print(f'label = "shape {i}: {kind}, {controller}"')
-            print('scenario = "../scenarios/fill-transport-h.toml"')
-            print(f'"robots.0.controller" = "{controller}"')
-            print(f'"objects.0.shape" = {{ polygon = {pts_toml(pts)} }}')
-            print(f'"objects.0.yaw_deg" = {yaw:.1f}')
-            print(f'"objects.0.at" = [{at[0]:.2f}, {at[1]:.2f}]')
-            print(f'"lights.0.at" = [{goal[0]:.2f}, {goal[1]:.2f}]')
+            print_shape_case(f"shape {i}: {kind}, {controller}", controller, drawn[-1][1])
     print()
     print("# --- random obstacle maps, 4 x 4 m: occlusion with relays ---------------------------------")
     for i in range(MAPS):
@@ -190,17 +198,9 @@ def main():
         print(f'"lights.0.at" = [{goal[0]:.2f}, {goal[1]:.2f}]')
     print()
     print("# --- the same shapes and places, occlusion without the beacon (finds the object by its colour) --")
-    for i, (kind, pts, yaw, at, goal) in enumerate(drawn):
-        print()
-        print("[[cases]]")
-        print(f'label = "shape {i}: {kind}, occlusion, camera"')
-        print('scenario = "../scenarios/fill-transport-h.toml"')
-        print('"robots.0.controller" = "occlusion"')
-        print('"robots.0.params.perception" = "camera"')
-        print(f'"objects.0.shape" = {{ polygon = {pts_toml(pts)} }}')
-        print(f'"objects.0.yaw_deg" = {yaw:.1f}')
-        print(f'"objects.0.at" = [{at[0]:.2f}, {at[1]:.2f}]')
-        print(f'"lights.0.at" = [{goal[0]:.2f}, {goal[1]:.2f}]')
+    for i, (kind, shape) in enumerate(drawn):
+        camera = ['"robots.0.params.perception" = "camera"']
+        print_shape_case(f"shape {i}: {kind}, occlusion, camera", "occlusion", shape, camera)
 
 
 if __name__ == "__main__":
