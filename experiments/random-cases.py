@@ -22,6 +22,10 @@ controllers, with their defaults and the Khepera IV noise preset, where no one l
 - The twelve shapes again, in the same places, with `occlusion` finding the object by its colour
   in the colour scan instead of being told its centre (`perception = "camera"`), appended
   last so that the trials before keep their numbers.
+- The twelve shapes once more, static, in the seed's filling set-up (scenarios/seed-fill-u.toml:
+  the shape, turned as drawn, in place of the U under the beacon light at (-0.8, 0), 10 Khepera
+  IV released one every 20 s, 600 s, `filling`): cavity_robots against cavity_capacity and
+  false_stops on cavities no one tuned for; appended after the camera cases.
 """
 import math
 import random
@@ -201,6 +205,14 @@ def main():
     for i, (kind, shape) in enumerate(drawn):
         camera = ['"robots.0.params.perception" = "camera"']
         print_shape_case(f"shape {i}: {kind}, occlusion, camera", "occlusion", shape, camera)
+    print()
+    print("# --- the same shapes, static, filled as in the seed's Experiment 1 (filling) ----------------")
+    for i, (kind, (pts, yaw, _, _)) in enumerate(drawn):
+        print()
+        print("[[cases]]")
+        print(f'label = "shape {i}: {kind}, static, filling"')
+        print('scenario = "../scenarios/seed-fill-u.toml"')
+        print(f'"objects.0.parts" = [{{ polygon = {pts_toml(pts)}, yaw_deg = {yaw:.1f}, at = [-0.8, 0.0] }}]')
 
 
 if __name__ == "__main__":

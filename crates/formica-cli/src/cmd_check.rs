@@ -126,7 +126,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if let Some(w) = sc.physics_warning() {
         outln!("    warning: {w}");
     }
-    if w.goal().is_none() {
+    if let (None, Some(frac)) = (w.goal(), s.stop.on_filled) {
+        outln!(
+            "  stop: no goal light; success once every robot is released and {:.0} % of them \
+             are attached (stop.on_filled); wall: {}",
+            100.0 * frac,
+            s.stop.on_wall
+        );
+    } else if w.goal().is_none() {
         outln!(
             "  stop: no goal light, so no trial succeeds (each ends by the wall rule or at its \
              time limit); wall: {}",

@@ -21,7 +21,7 @@ use crate::store::{Store, StoredTrial};
 use crate::CliError;
 use anyhow::Context;
 use formica::{Outcome, RunResult};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -324,6 +324,24 @@ fn category_plot(
     }
 }
 
+/// Parameter sets (their canonical JSON) whose scenario has no success rule (no goal to reach
+/// and no `stop.on_filled`: static filling), read from the scenarios the store keeps. A set
+/// whose scenario cannot be rebuilt counts as having one.
+fn sets_without_success_rule(db: &Path, rows: &[StoredTrial]) -> HashSet<String> {
+    let Ok(mut replayer) = crate::replay::Replayer::open(db) else {
+        return HashSet::new();
+    };
+    by_set(rows)
+        .into_iter()
+        .filter(|(_, rs)| {
+            replayer
+                .trial(rs[0].trial)
+                .is_ok_and(|r| !r.scenario.has_success_rule())
+        })
+        .map(|(set, _)| set.to_string())
+        .collect()
+}
+
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
     let store = Store::open_existing(&a.db)?;
@@ -335,6 +353,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
         )));
     }
     let name = store.meta("name")?.unwrap_or_else(|| "sweep".into());
+    // Trials that can succeed: success rates, survival curves and failed trials count these
+    // only; the others (static filling) are judged by their filling metrics.
+    let unjudged = sets_without_success_rule(&a.db, &rows);
+    let scored: Vec<StoredTrial> = rows
+        .iter()
+        .filter(|r| !unjudged.contains(&r.params_json))
+        .cloned()
+        .collect();
     let keys: Vec<String> = store
         .keys()?
         .into_iter()
@@ -418,20 +444,22 @@ pub fn main(a: Args) -> Result<(), CliError> {
         };
         let x_of = |r: &StoredTrial| xk.as_ref().map_or_else(|| "all".into(), |k| value(r, k));
         let s_key = series_key(&rows, &plotted, xk.as_deref());
-        let p = category_plot(
-            &rows,
-            &x_name,
-            cats.clone(),
-            &x_of,
-            s_key.as_deref(),
-            &success,
-            format!("{name}: success rate (95 % Wilson)"),
-            "success rate",
-            Some((0.0, 1.0)),
-        );
-        let f = format!("success-{stem}");
-        plots::save_category(dir, &f, &p)?;
-        figures.push((f, format!("Success rate against {x_name}")));
+        if !scored.is_empty() {
+            let p = category_plot(
+                &scored,
+                &x_name,
+                cats.clone(),
+                &x_of,
+                s_key.as_deref(),
+                &success,
+                format!("{name}: success rate (95 % Wilson)"),
+                "success rate",
+                Some((0.0, 1.0)),
+            );
+            let f = format!("success-{stem}");
+            plots::save_category(dir, &f, &p)?;
+            figures.push((f, format!("Success rate against {x_name}")));
+        }
         if moved {
             let p = category_plot(
                 &rows,
@@ -496,7 +524,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
         }
     }
 
-    // Survival curves: per parameter set if few, else per value of the series key.
+    // Survival curves (of trials that can succeed): per parameter set if few, else per value
+    // of the series key.
+    let scored_sets = by_set(&scored);
     let by_set = by_set(&rows);
     let sets: Vec<String> = by_set.iter().map(|(s, _)| s.to_string()).collect();
     let set_label = |r: &StoredTrial| {
@@ -510,9 +540,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 .join(", ")
         }
     };
-    let (groups, by): (Vec<(String, Vec<&RunResult>)>, String) = if sets.len() <= 8 {
+    let (groups, by): (Vec<(String, Vec<&RunResult>)>, String) = if scored_sets.len() <= 8 {
         let mut g: Vec<(String, Vec<&RunResult>)> = Vec::new();
-        for (_, rs) in &by_set {
+        for (_, rs) in &scored_sets {
             g.push((set_label(rs[0]), rs.iter().map(|r| &r.result).collect()));
         }
         (g, "parameter set".into())
@@ -520,14 +550,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let k = split_by(&keys).or_else(|| keys.first().cloned());
         match k {
             Some(k) => {
-                let vals = values_of(&rows, &k);
+                let vals = values_of(&scored, &k);
                 let g = vals
                     .iter()
                     .take(10)
                     .map(|v| {
                         (
                             format!("{k} = {v}"),
-                            rows.iter()
+                            scored
+                                .iter()
                                 .filter(|r| &value(r, &k) == v)
                                 .map(|r| &r.result)
                                 .collect(),
@@ -539,7 +570,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             None => (
                 vec![(
                     "all trials".into(),
-                    rows.iter().map(|r| &r.result).collect(),
+                    scored.iter().map(|r| &r.result).collect(),
                 )],
                 "all".into(),
             ),
@@ -559,14 +590,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
         legend: true,
         colors: Vec::new(),
     };
-    plots::save_lines(dir, "survival", &p)?;
-    figures.push((
-        "survival".into(),
-        format!("Completion-time survival curves, by {by}"),
-    ));
+    if !scored.is_empty() {
+        plots::save_lines(dir, "survival", &p)?;
+        figures.push((
+            "survival".into(),
+            format!("Completion-time survival curves, by {by}"),
+        ));
+    }
 
     // Time against swarm size.
-    let mut sizes: Vec<usize> = rows.iter().map(|r| r.result.robots).collect();
+    let mut sizes: Vec<usize> = scored.iter().map(|r| r.result.robots).collect();
     sizes.sort_unstable();
     sizes.dedup();
     if sizes.len() > 1 && any_success {
@@ -579,7 +612,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let s_key = split_by(&others);
         let cats: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
         let p = category_plot(
-            &rows,
+            &scored,
             "robots",
             cats,
             &|r: &StoredTrial| r.result.robots.to_string(),
@@ -603,15 +636,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
         ));
         // Survival curves by swarm size: one figure per value of the series key (at most 6).
         let parts: Vec<(String, Vec<&StoredTrial>)> = match &s_key {
-            Some(k) => values_of(&rows, k)
+            Some(k) => values_of(&scored, k)
                 .into_iter()
                 .take(6)
                 .map(|v| {
-                    let rs = rows.iter().filter(|r| value(r, k) == v).collect();
+                    let rs = scored.iter().filter(|r| value(r, k) == v).collect();
                     (v, rs)
                 })
                 .collect(),
-            None => vec![(String::new(), rows.iter().collect())],
+            None => vec![(String::new(), scored.iter().collect())],
         };
         for (v, rs) in &parts {
             let curves: Vec<(String, Vec<(f64, f64)>)> = sizes
@@ -700,22 +733,43 @@ pub fn main(a: Args) -> Result<(), CliError> {
 
     // summary.md
     let mut md = String::new();
-    let n = rows.len();
-    let k = rows
+    let n = scored.len();
+    let k = scored
         .iter()
         .filter(|r| r.result.outcome == Outcome::Success)
         .count();
     let [lo, hi] = wilson95(k, n);
     let _ = writeln!(md, "# {name}\n");
-    let _ = writeln!(
+    let _ = write!(
         md,
-        "{n} trials in `{}`, {} parameter set(s); {k} successes ({:.1} %, 95 % Wilson CI {:.1}–{:.1} %).\n",
+        "{} trials in `{}`, {} parameter set(s)",
+        rows.len(),
         crate::replay::store_name(&a.db),
         sets.len(),
-        100.0 * k as f64 / n as f64,
-        100.0 * lo,
-        100.0 * hi
     );
+    if !unjudged.is_empty() {
+        let _ = write!(
+            md,
+            "; {} of them, in {} parameter set(s), have no success rule (no goal to reach and no `stop.on_filled`: static filling, judged by the filling columns below) and are left out of success rates, survival curves and failed trials",
+            rows.len() - n,
+            unjudged.len()
+        );
+    }
+    if n > 0 {
+        let _ = write!(
+            md,
+            "; {k} successes{} ({:.1} %, 95 % Wilson CI {:.1}–{:.1} %)",
+            if unjudged.is_empty() {
+                String::new()
+            } else {
+                format!(" of the other {n}")
+            },
+            100.0 * k as f64 / n as f64,
+            100.0 * lo,
+            100.0 * hi
+        );
+    }
+    md.push_str(".\n\n");
     let _ = writeln!(
         md,
         "Every trial, one row each: [trials.csv](trials.csv) (the columns of `formica export`).\n"
@@ -752,7 +806,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
     head.extend(extras.iter().map(|f| format!("`{f}` (mean)")));
     let _ = writeln!(md, "| {} |", head.join(" | "));
     let _ = writeln!(md, "|{}", "---|".repeat(head.len()));
-    for (_, rs) in &by_set {
+    for (set, rs) in &by_set {
+        let judged = !unjudged.contains(*set);
         let res: Vec<RunResult> = rs.iter().map(|r| r.result.clone()).collect();
         let refs: Vec<&RunResult> = res.iter().collect();
         let count = |o: Outcome| res.iter().filter(|r| r.outcome == o).count();
@@ -764,13 +819,18 @@ pub fn main(a: Args) -> Result<(), CliError> {
             (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
         };
         cells.push(res.len().to_string());
-        cells.push(ok.to_string());
-        cells.push(format!(
-            "{:.0} % ({:.0}–{:.0} %)",
-            100.0 * ok as f64 / res.len() as f64,
-            100.0 * lo,
-            100.0 * hi
-        ));
+        if judged {
+            cells.push(ok.to_string());
+            cells.push(format!(
+                "{:.0} % ({:.0}–{:.0} %)",
+                100.0 * ok as f64 / res.len() as f64,
+                100.0 * lo,
+                100.0 * hi
+            ));
+        } else {
+            cells.push("–".to_string());
+            cells.push("no success rule".to_string());
+        }
         cells.push(count(Outcome::Wall).to_string());
         cells.push(count(Outcome::Timeout).to_string());
         cells.push(fmt_opt(censored_median(&res), 1));
@@ -820,7 +880,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     };
     md.push_str(&crate::gallery::failures_section(
         &a.db,
-        &rows,
+        &scored,
         &sets,
         &short_label,
         dir,

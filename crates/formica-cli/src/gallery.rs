@@ -176,6 +176,10 @@ pub fn failures_section(
     let mut md = String::from("## Failed trials\n\n");
     let name = replay::store_name(db);
     let program = crate::program();
+    if rows.is_empty() {
+        md.push_str("None: no trial here has a success rule.\n\n");
+        return Ok(md);
+    }
     if failed.is_empty() {
         md.push_str("Every trial succeeded.\n\n");
         return Ok(md);

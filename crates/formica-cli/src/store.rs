@@ -688,6 +688,7 @@ impl Store {
 pub type StoredTrajectory = (String, u64, Vec<[f64; 4]>);
 
 /// One trial read back from a store.
+#[derive(Clone)]
 pub struct StoredTrial {
     /// Index in the sweep's grid (what `--trial` takes).
     pub trial: usize,

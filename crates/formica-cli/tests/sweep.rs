@@ -363,6 +363,52 @@ label = "walk"
 }
 
 #[test]
+fn report_leaves_static_filling_out_of_success_rates_and_failures() {
+    let dir = tmp("static");
+    // A transport case, whose trials can succeed, beside static filling, which has no goal
+    // and no `stop.on_filled`: its trials always end by timeout, and are no failures.
+    let text = format!(
+        r#"name = "static"
+seeds = "1..2"
+duration_s = 20
+
+[[cases]]
+label = "transport"
+scenario = "{}"
+
+[[cases]]
+label = "static filling"
+scenario = "{}"
+"#,
+        repo("scenarios/seed-transport.toml")
+            .display()
+            .to_string()
+            .replace('\\', "/"),
+        repo("scenarios/seed-fill-u-all.toml")
+            .display()
+            .to_string()
+            .replace('\\', "/")
+    );
+    let file = dir.join("static.toml");
+    std::fs::write(&file, text).unwrap();
+    let db = dir.join("static.db");
+    ok(sweep(&file, &db, &[]));
+    let md = report_without_gallery(&db, &dir.join("report"));
+    assert!(
+        md.contains("4 trials in `static.db`, 2 parameter set(s); 2 of them, in 1 parameter set(s), have no success rule"),
+        "{md}"
+    );
+    assert!(md.contains("successes of the other 2"), "{md}");
+    let row = md
+        .lines()
+        .find(|l| l.contains("| static filling |"))
+        .expect("a row for the static case");
+    assert!(row.contains("| – | no success rule |"), "{row}");
+    let failures = md.split("## Failed trials").nth(1).unwrap();
+    assert!(!failures.contains("static filling"), "{failures}");
+}
+
+#[test]
 fn bad_sweep_files_exit_with_code_2_naming_file_and_key() {
     let dir = tmp("bad");
     let file = write_sweep(&dir, "1..2");

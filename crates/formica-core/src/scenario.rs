@@ -1223,6 +1223,17 @@ impl Scenario {
             .or_else(|| (!l.is_empty() && l[0].get_ref().goal != Some(false)).then_some(0))
     }
 
+    /// Whether a trial of this scenario can succeed: `stop.on_filled` is set, or `stop.on_goal`
+    /// with a goal light and a movable object. One without (static filling, say) ends only
+    /// by the wall rule or its time limit, and is judged by its metrics, not a success rate.
+    pub fn has_success_rule(&self) -> bool {
+        let stop = &self.spec.stop;
+        stop.on_filled.is_some()
+            || (stop.on_goal
+                && self.goal_light().is_some()
+                && self.spec.objects.iter().any(|o| o.get_ref().movable))
+    }
+
     /// The robot models in use: the largest top speed and the smallest radius (m/s, m).
     pub fn speed_and_radius(&self) -> Option<(f32, f32)> {
         self.spec
@@ -1535,6 +1546,23 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         let s = Scenario::parse(MIN, "t.toml").unwrap();
         assert_eq!(s.robot_count(), 3);
         assert_eq!(s.name, "t");
+    }
+
+    #[test]
+    fn a_success_rule_needs_a_goal_and_a_movable_object_or_on_filled() {
+        let parse = |t: &str| Scenario::parse(t, "t.toml").unwrap();
+        // No light: nothing to reach.
+        assert!(!parse(MIN).has_success_rule());
+        let lit = format!("{MIN}\n[[lights]]\nat = [2.5, 0.0]\n");
+        assert!(parse(&lit).has_success_rule());
+        // A static object never reaches the goal; a light that is no goal is no goal.
+        assert!(
+            !parse(&lit.replace("at = [-1.0", "movable = false\nat = [-1.0")).has_success_rule()
+        );
+        assert!(!parse(&format!("{lit}goal = false\n")).has_success_rule());
+        assert!(!parse(&format!("{lit}\n[stop]\non_goal = false\n")).has_success_rule());
+        // Filling to a fraction is a success rule of its own.
+        assert!(parse(&format!("{MIN}\n[stop]\non_filled = 0.8\n")).has_success_rule());
     }
 
     #[test]
