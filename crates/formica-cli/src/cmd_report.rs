@@ -15,6 +15,7 @@
 //!   replays each and a gallery of pictures of how the first ones ended (`failures/trial-N.png`);
 //! - `trials.csv`: every trial, one row each, as `formica export` writes it.
 
+use crate::gallery::Listed;
 use crate::plots::{self, CategoryPlot, Estimate, LinePlot};
 use crate::stats::{censored_median, wilson95};
 use crate::store::{Store, StoredTrial};
@@ -878,7 +879,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .and_then(|v| v.as_str())
             .map_or_else(|| set_label(r), str::to_string)
     };
-    md.push_str(&crate::gallery::failures_section(
+    md.push_str(&crate::gallery::trials_section(
+        Listed::Failed,
         &a.db,
         &scored,
         &sets,
@@ -887,6 +889,23 @@ pub fn main(a: Args) -> Result<(), CliError> {
         a.failures,
         a.gallery,
     )?);
+    if !unjudged.is_empty() {
+        let endings: Vec<StoredTrial> = rows
+            .iter()
+            .filter(|r| unjudged.contains(&r.params_json))
+            .cloned()
+            .collect();
+        md.push_str(&crate::gallery::trials_section(
+            Listed::Unjudged,
+            &a.db,
+            &endings,
+            &sets,
+            &short_label,
+            dir,
+            a.failures,
+            a.gallery,
+        )?);
+    }
     md.push_str(&crate::gallery::provenance_section(
         &store,
         &rows,

@@ -157,10 +157,26 @@ struct Failed<'a> {
     picture: Option<Result<String, String>>,
 }
 
-/// The `## Failed trials` section: per parameter set (labelled by `set_label`), up to `list`
-/// failed trials with their replay command, and pictures of the first `gallery` of them in
-/// `dir/failures/`.
-pub fn failures_section(
+/// Which trials a [`trials_section`] lists.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Listed {
+    /// `## Failed trials`: the trials that did not succeed (pictures in `failures/`).
+    Failed,
+    /// `## Trials without a success rule`: how each trial of a set with no success rule
+    /// (static filling) ended (pictures in `endings/`).
+    Unjudged,
+}
+
+/// The `## Failed trials` section ([`Listed::Failed`]: of `rows`, those that did not succeed),
+/// or the `## Trials without a success rule` section ([`Listed::Unjudged`]: every one of
+/// `rows`): per parameter set (labelled by `set_label`), up to `list` trials with their replay
+/// command, and pictures of the first `gallery` of them.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "two calls, each argument named at the call"
+)]
+pub fn trials_section(
+    listed: Listed,
     db: &Path,
     rows: &[StoredTrial],
     sets: &[String],
@@ -173,7 +189,16 @@ pub fn failures_section(
         .iter()
         .filter(|r| r.result.outcome != Outcome::Success)
         .collect();
-    let mut md = String::from("## Failed trials\n\n");
+    let (heading, folder, verb, word) = match listed {
+        Listed::Failed => ("Failed trials", "failures", "did not succeed", "failed"),
+        Listed::Unjudged => (
+            "Trials without a success rule",
+            "endings",
+            "have no success rule (their filling columns above judge them)",
+            "trials",
+        ),
+    };
+    let mut md = format!("## {heading}\n\n");
     let name = replay::store_name(db);
     let program = crate::program();
     if rows.is_empty() {
@@ -198,11 +223,11 @@ pub fn failures_section(
     let pictures = if wanted.is_empty() {
         Vec::new()
     } else {
-        draw_pictures(db, &wanted, &dir.join("failures"))?
+        draw_pictures(db, &wanted, &dir.join(folder))?
     };
     let _ = writeln!(
         md,
-        "{} of {} trials did not succeed. Each replays in the viewer with the command shown (run where `{name}` is; `{program} run --db {name} --trial N` replays it headless and checks that it ends as stored).{}\n",
+        "{} of {} trials {verb}. Each replays in the viewer with the command shown (run where `{name}` is; `{program} run --db {name} --trial N` replays it headless and checks that it ends as stored).{}\n",
         failed.len(),
         rows.len(),
         if gallery > 0 {
@@ -233,7 +258,7 @@ pub fn failures_section(
             .collect();
         let _ = writeln!(
             md,
-            "### {} ({} failed: {})\n",
+            "### {} ({} {word}: {})\n",
             set_label(mine[0].row),
             mine.len(),
             kinds.join(", ")
@@ -303,6 +328,9 @@ fn draw_pictures(db: &Path, trials: &[&StoredTrial], out: &Path) -> Result<Vec<P
         }
     }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let folder = out
+        .file_name()
+        .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     let drawn: Vec<Picture> = replays
         .par_iter()
         .with_max_len(1)
@@ -329,7 +357,7 @@ fn draw_pictures(db: &Path, trials: &[&StoredTrial], out: &Path) -> Result<Vec<P
                 let file = format!("trial-{}.png", r.trial);
                 formica_render::save_png(&run.world, PICTURE_WIDTH, &overlay, &out.join(&file))?;
                 if diffs.is_empty() {
-                    Ok(format!("failures/{file}"))
+                    Ok(format!("{folder}/{file}"))
                 } else {
                     Err(format!(
                         "its replay did not end as stored: {}",

@@ -404,8 +404,15 @@ scenario = "{}"
         .find(|l| l.contains("| static filling |"))
         .expect("a row for the static case");
     assert!(row.contains("| – | no success rule |"), "{row}");
-    let failures = md.split("## Failed trials").nth(1).unwrap();
+    let after = md.split("## Failed trials").nth(1).unwrap();
+    let (failures, endings) = after
+        .split_once("## Trials without a success rule")
+        .expect("a section for the static trials");
     assert!(!failures.contains("static filling"), "{failures}");
+    assert!(
+        endings.contains("### static filling (2 trials: 2 timeout)"),
+        "{endings}"
+    );
 }
 
 #[test]
