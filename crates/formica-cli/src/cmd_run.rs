@@ -427,7 +427,10 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
         for r in &results {
             outln!("{}", describe(r));
         }
-        outln!(
+        if !sc.has_success_rule() {
+            outln!("{}", unjudged_summary(&sc.name, &results));
+        } else {
+            outln!(
             "{}: {} trials, success {:.1} % (95 % CI {:.1}-{:.1} %), median time {}, mean path efficiency {:.3}",
             summary.scenario,
             summary.trials,
@@ -437,6 +440,7 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
             summary.median_time_s.map_or("n/a (under half succeeded)".into(), |t| format!("{t:.1} s")),
             summary.mean_path_efficiency
         );
+        }
     }
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -452,4 +456,31 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
         .context("writing summary.json")?;
     }
     Ok(())
+}
+
+/// The closing line of `formica run --seeds` for a scenario with no success rule (static
+/// filling): its filling figures instead of a success rate that could only read 0 %.
+fn unjudged_summary(name: &str, results: &[RunResult]) -> String {
+    let mean = |f: &dyn Fn(&RunResult) -> Option<f64>| {
+        let xs: Vec<f64> = results.iter().filter_map(f).collect();
+        (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
+    };
+    let mut line = format!(
+        "{name}: {} trials; no success rule (no goal to reach and no stop.on_filled), so no success rate",
+        results.len()
+    );
+    if let Some(a) = mean(&|r| r.object_robots.map(|n| n as f64)) {
+        line += &format!("; robots attached {a:.1} on average");
+    }
+    let robots = mean(&|r| r.cavity_robots.map(|n| n as f64));
+    let capacity = mean(&|r| r.cavity_capacity.map(|n| n as f64));
+    if let (Some(n), Some(c)) = (robots, capacity) {
+        line += &format!(", in the cavity {n:.1} of a capacity of {c:.0}");
+    }
+    let judged = results.iter().filter(|r| r.false_stops.is_some()).count();
+    if judged > 0 {
+        let clean = results.iter().filter(|r| r.false_stops == Some(0)).count();
+        line += &format!(", runs without false stops {clean} of {judged}");
+    }
+    line
 }

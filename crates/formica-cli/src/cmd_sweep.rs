@@ -235,21 +235,34 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("starting worker threads")?;
-    let (tx, rx) = mpsc::channel::<Row>();
+    // Sets whose scenario has no success rule (static filling) count apart from the rate.
+    let judged: Vec<bool> = sweep
+        .sets
+        .iter()
+        .map(|s| s.scenario.has_success_rule())
+        .collect();
+    let (tx, rx) = mpsc::channel::<(Row, bool)>();
     // The single writer: one transaction per finished trial.
     let writer_bar = bar.clone();
-    let writer = std::thread::spawn(move || -> Result<(usize, usize), CliError> {
-        let (mut n, mut ok) = (0usize, 0usize);
-        for row in rx {
+    let writer = std::thread::spawn(move || -> Result<(usize, usize, usize), CliError> {
+        let (mut n, mut ok, mut unjudged) = (0usize, 0usize, 0usize);
+        for (row, judged) in rx {
             store.insert(&row)?;
             n += 1;
-            if row.result.outcome == Outcome::Success {
+            if !judged {
+                unjudged += 1;
+            } else if row.result.outcome == Outcome::Success {
                 ok += 1;
             }
             writer_bar.inc(1);
-            writer_bar.set_message(format!("success {:.0} %", 100.0 * ok as f64 / n as f64));
+            if n > unjudged {
+                writer_bar.set_message(format!(
+                    "success {:.0} %",
+                    100.0 * ok as f64 / (n - unjudged) as f64
+                ));
+            }
         }
-        Ok((n, ok))
+        Ok((n, ok, unjudged))
     });
     let failures: Vec<String> = pool.install(|| {
         todo.par_iter()
@@ -257,7 +270,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .filter_map(
                 |&t| match run_trial(&sweep, t, record, &provenance[t.set]) {
                     Ok(row) => tx
-                        .send(row)
+                        .send((row, judged[t.set]))
                         .err()
                         .map(|_| "the result writer stopped".to_string()),
                     Err(e) => Some(format!("trial {} (seed {}): {e}", t.index, t.seed)),
@@ -269,7 +282,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let written = writer
         .join()
         .map_err(|_| CliError::Other(anyhow::anyhow!("the result writer panicked")))?;
-    let (n, ok) = written?;
+    let (n, ok, unjudged) = written?;
     bar.finish_and_clear();
     if let Some(f) = failures.first() {
         return Err(CliError::Other(anyhow::anyhow!(
@@ -279,14 +292,31 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     let store = Store::open(&db)?;
     let total = store.count()?;
-    let [lo, hi] = stats::wilson95(ok, n);
+    let scored = n - unjudged;
+    let [lo, hi] = stats::wilson95(ok, scored);
+    let outcome = match (scored, unjudged) {
+        (0, 0) => "none to run".to_string(),
+        (0, _) => "none has a success rule: static filling, judged by its metrics".to_string(),
+        (_, u) => format!(
+            "{ok} successes{}, {:.1} %, 95 % CI {:.1}-{:.1} %{}",
+            if u > 0 {
+                format!(" of {scored}")
+            } else {
+                String::new()
+            },
+            100.0 * ok as f64 / scored as f64,
+            100.0 * lo,
+            100.0 * hi,
+            if u > 0 {
+                format!("; {u} with no success rule beside them")
+            } else {
+                String::new()
+            }
+        ),
+    };
     outln!(
-        "{}: ran {n} trials ({} successes, {:.1} %, 95 % CI {:.1}-{:.1} %), skipped {skipped} already stored; {} holds {total} of {} trials",
+        "{}: ran {n} trials ({outcome}), skipped {skipped} already stored; {} holds {total} of {} trials",
         sweep.name,
-        ok,
-        if n > 0 { 100.0 * ok as f64 / n as f64 } else { 0.0 },
-        100.0 * lo,
-        100.0 * hi,
         db.display(),
         all.len()
     );

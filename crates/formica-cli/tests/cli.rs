@@ -103,6 +103,26 @@ fn strip_wall_time(s: &str) -> String {
 }
 
 #[test]
+fn static_filling_runs_close_with_filling_figures_not_a_success_rate() {
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-fill-u-all.toml"))
+        .args(["--seeds", "1..2", "--duration", "60"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let last = text.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("seed-fill-u-all: 2 trials; no success rule"),
+        "{last}"
+    );
+    assert!(last.contains("of a capacity of 11"), "{last}");
+    assert!(last.contains("runs without false stops"), "{last}");
+    assert!(!last.contains("success 0.0 %"), "{last}");
+}
+
+#[test]
 fn seeds_in_parallel_do_not_depend_on_thread_count() {
     let run = |threads: &str| {
         let out = formica()

@@ -392,7 +392,9 @@ scenario = "{}"
     let file = dir.join("static.toml");
     std::fs::write(&file, text).unwrap();
     let db = dir.join("static.db");
-    ok(sweep(&file, &db, &[]));
+    let out = String::from_utf8_lossy(&ok(sweep(&file, &db, &[])).stdout).into_owned();
+    assert!(out.contains("successes of 2,"), "{out}");
+    assert!(out.contains("2 with no success rule beside them"), "{out}");
     let md = report_without_gallery(&db, &dir.join("report"));
     assert!(
         md.contains("4 trials in `static.db`, 2 parameter set(s); 2 of them, in 1 parameter set(s), have no success rule"),
