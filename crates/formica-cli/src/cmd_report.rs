@@ -326,8 +326,9 @@ fn category_plot(
 }
 
 /// Parameter sets (their canonical JSON) whose scenario has no success rule (no goal to reach
-/// and no `stop.on_filled`: static filling), read from the scenarios the store keeps. A set
-/// whose scenario cannot be rebuilt counts as having one.
+/// and no `stop.on_filled`: static filling; [`formica::Scenario::has_success_rule`]), read
+/// from the scenarios the store keeps. A set whose scenario cannot be rebuilt, or with a
+/// trial that succeeded, counts as having one.
 fn sets_without_success_rule(db: &Path, rows: &[StoredTrial]) -> HashSet<String> {
     let Ok(mut replayer) = crate::replay::Replayer::open(db) else {
         return HashSet::new();
@@ -335,9 +336,10 @@ fn sets_without_success_rule(db: &Path, rows: &[StoredTrial]) -> HashSet<String>
     by_set(rows)
         .into_iter()
         .filter(|(_, rs)| {
-            replayer
-                .trial(rs[0].trial)
-                .is_ok_and(|r| !r.scenario.has_success_rule())
+            rs.iter().all(|r| r.result.outcome != Outcome::Success)
+                && replayer
+                    .trial(rs[0].trial)
+                    .is_ok_and(|r| !r.scenario.has_success_rule())
         })
         .map(|(set, _)| set.to_string())
         .collect()

@@ -1224,11 +1224,19 @@ impl Scenario {
     }
 
     /// Whether a trial of this scenario can succeed: `stop.on_filled` is set, or `stop.on_goal`
-    /// with a goal light and a movable object. One without (static filling, say) ends only
-    /// by the wall rule or its time limit, and is judged by its metrics, not a success rate.
+    /// with a goal light and a movable object, or its registry holds loop functions besides
+    /// the built-in `transport` and `fill` (theirs may end a run with success). One without
+    /// (static filling, say) ends only by the wall rule or its time limit, and is judged by its
+    /// metrics, not a success rate.
     pub fn has_success_rule(&self) -> bool {
         let stop = &self.spec.stop;
-        stop.on_filled.is_some()
+        let own_loop_functions = self
+            .registry
+            .loop_function_names()
+            .iter()
+            .any(|n| !matches!(*n, "transport" | "fill"));
+        own_loop_functions
+            || stop.on_filled.is_some()
             || (stop.on_goal
                 && self.goal_light().is_some()
                 && self.spec.objects.iter().any(|o| o.get_ref().movable))
@@ -1563,6 +1571,12 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         assert!(!parse(&format!("{lit}\n[stop]\non_goal = false\n")).has_success_rule());
         // Filling to a fraction is a success rule of its own.
         assert!(parse(&format!("{MIN}\n[stop]\non_filled = 0.8\n")).has_success_rule());
+        // Loop functions of one's own may end a run with success.
+        let mut registry = Registry::builtin();
+        registry
+            .loop_functions("mine", |_, _| None)
+            .expect("a new name");
+        assert!(registry.parse(MIN, "t.toml").unwrap().has_success_rule());
     }
 
     #[test]
