@@ -171,6 +171,33 @@ fn flatten_vary(
     Ok(())
 }
 
+/// Where `k` is best pointed at in a sweep file's `text` (byte offset): quoted as a key
+/// (`"k"`), or at the start of a line (`k = ...`), else its first mention outside a comment,
+/// else its first mention.
+fn mention(text: &str, k: &str) -> Option<usize> {
+    if k.is_empty() {
+        return None;
+    }
+    let quoted = format!("\"{k}\"");
+    let mut offset = 0;
+    let mut uncommented = None;
+    for line in text.split_inclusive('\n') {
+        let code = line.split('#').next().unwrap_or_default();
+        if let Some(i) = code.find(&quoted) {
+            return Some(offset + i);
+        }
+        let lead = code.len() - code.trim_start().len();
+        if code.trim_start().starts_with(k) {
+            return Some(offset + lead);
+        }
+        if uncommented.is_none() {
+            uncommented = code.find(k).map(|i| offset + i);
+        }
+        offset += line.len();
+    }
+    uncommented.or_else(|| text.find(k))
+}
+
 fn parse_seeds(s: &toml::Value) -> Result<Vec<u64>, String> {
     let expected = "seeds: expected \"A..B\" (inclusive, A <= B) or a list of seeds";
     match s {
@@ -208,8 +235,13 @@ impl Sweep {
             CliError::Input(format!("{file}:{line}:{col}: {}", e.message().trim()))
         })?;
         let input = |m: String| {
-            // Point at the first mention of what the message quotes, if any.
-            let pos = m.split('`').nth(1).and_then(|k| text.find(k)).unwrap_or(0);
+            // Point at what the message quotes, if any: where it stands as a key, else its
+            // first mention outside a comment, else its first mention.
+            let pos = m
+                .split('`')
+                .nth(1)
+                .and_then(|k| mention(&text, k))
+                .unwrap_or(0);
             let (line, col) = line_col(&text, pos);
             CliError::Input(format!("{file}:{line}:{col}: {m}"))
         };
@@ -398,6 +430,17 @@ pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn errors_point_at_the_key_not_at_a_comment_that_names_it() {
+        let text = "duration_s = 300   # same as \"run.duration_s\" in [set]\n\n[vary]\n\"run.duration_s\" = [1, 2]\n";
+        let at = |k: &str| mention(text, k).map(|i| line_col(text, i));
+        assert_eq!(at("run.duration_s"), Some((4, 1)));
+        assert_eq!(at("duration_s"), Some((1, 1)));
+        assert_eq!(at("nowhere"), None);
+        // Only in a comment: pointed at all the same.
+        assert_eq!(mention("a = 1 # seeds\n", "seeds"), Some(8));
+    }
 
     #[test]
     fn canonical_json_sorts_keys() {
