@@ -11,6 +11,7 @@ use formica::timeseries::TimeSeries;
 use formica::{Outcome, Overrides};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
+use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::mpsc;
 
@@ -194,11 +195,35 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     let done = store.done()?;
     if !done.is_empty() {
-        let index: Vec<(&str, u64, usize)> = all
+        let mut index: Vec<(&str, u64, usize)> = all
             .iter()
             .filter(|t| done.contains(&(sweep.sets[t.set].key.clone(), t.seed)))
             .map(|t| (sweep.sets[t.set].key.as_str(), t.seed, t.index))
             .collect();
+        // Stored trials the grid no longer has (a varied value changed or dropped, seeds
+        // cut): they keep their rows, numbered after the grid so that no two trials share a
+        // number, in an order every machine agrees on.
+        let in_grid: HashSet<(&str, u64)> = index.iter().map(|(p, s, _)| (*p, *s)).collect();
+        let mut orphans: Vec<&(String, u64)> = done
+            .iter()
+            .filter(|(p, s)| !in_grid.contains(&(p.as_str(), *s)))
+            .collect();
+        orphans.sort();
+        if !orphans.is_empty() {
+            eprintln!(
+                "{}: warning: {} stored trial(s) belong to parameter sets or seeds this sweep file no longer has; they stay in {}, numbered from {} on",
+                sweep.name,
+                orphans.len(),
+                db.display(),
+                all.len()
+            );
+        }
+        index.extend(
+            orphans
+                .iter()
+                .enumerate()
+                .map(|(k, (p, s))| (p.as_str(), *s, all.len() + k)),
+        );
         store.reindex(&index)?;
     }
     let mut todo: Vec<Trial> = mine

@@ -363,6 +363,45 @@ label = "walk"
 }
 
 #[test]
+fn trials_a_changed_grid_no_longer_has_keep_their_rows_under_numbers_of_their_own() {
+    let dir = tmp("regrid");
+    let file = write_sweep(&dir, "1..2");
+    let db = dir.join("regrid.db");
+    ok(sweep(&file, &db, &["--limit", "4"]));
+    // One varied value changed: trials of count 12 are no longer in the grid.
+    let text = std::fs::read_to_string(&file)
+        .unwrap()
+        .replace("[6, 12]", "[6, 9]");
+    std::fs::write(&file, text).unwrap();
+    let out = sweep(&file, &db, &[]);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    ok(out);
+    let numbers: Vec<i64> = {
+        let conn = rusqlite::Connection::open(&db).unwrap();
+        let mut st = conn
+            .prepare("SELECT trial FROM trials ORDER BY trial")
+            .unwrap();
+        st.query_map([], |r| r.get(0))
+            .unwrap()
+            .map(Result::unwrap)
+            .collect()
+    };
+    let mut unique = numbers.clone();
+    unique.dedup();
+    assert_eq!(numbers, unique, "two trials share a number");
+    // The grid's 8 trials, then the ones it dropped (those of the first run with count 12).
+    let dropped = numbers.len() - 8;
+    assert!(dropped > 0, "{numbers:?}");
+    assert_eq!(numbers, (0..numbers.len() as i64).collect::<Vec<_>>());
+    assert!(
+        err.contains(&format!(
+            "{dropped} stored trial(s) belong to parameter sets or seeds this sweep file no longer has"
+        )),
+        "{err}"
+    );
+}
+
+#[test]
 fn report_leaves_static_filling_out_of_success_rates_and_failures() {
     let dir = tmp("static");
     // A transport case, whose trials can succeed, beside static filling, which has no goal
