@@ -75,7 +75,7 @@ for cmd in "${COMMANDS[@]}"; do
       echo "  (skipped: .ci/run has just run it)" ;;
     "cargo install "*)
       (cd "$ROOT" && CARGO_INSTALL_ROOT="$WORK/install" CARGO_TARGET_DIR="$ROOT/target" \
-        bash -c "$cmd --locked --quiet")
+        bash -c "${cmd/ --locked/} --locked --quiet")
       export PATH="$WORK/install/bin:$PATH" ;;
     cargo\ *)
       (cd "$ROOT" && bash -c "$cmd" >/dev/null) ;;
