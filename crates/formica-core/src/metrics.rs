@@ -167,13 +167,10 @@ pub fn disc_in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2, radius:
     if inside_depth(hull, p) < r {
         return false;
     }
-    let body = world.objects[obj].body;
-    // `nearest_point` does not tell inside from outside for compound shapes.
-    if world.physics.contains(body, p) {
-        return false;
-    }
-    let (q, _) = world.physics.nearest_point(body, p);
-    (q - p).length() >= r
+    // An intersection test, not a point projection: a concave polygon is cut into convex
+    // pieces, and at a point on a piece's edge (within rounding) the projection can land on
+    // a far vertex, letting a disc centred on the object's boundary count as fitting.
+    !world.physics.disc_meets(world.objects[obj].body, p, r)
 }
 
 /// How many robot discs of `radius` fit in the cavity of object `obj`: discs inside the

@@ -1554,6 +1554,17 @@ impl Physics {
         col.shape().contains_point(col.position(), point)
     }
 
+    /// Whether a disc of `radius` at `center` overlaps a body's shape (touching counts). Robust
+    /// where a point projection is not: a disc centred on an edge of a concave polygon's piece
+    /// overlaps it, whatever the rounding.
+    pub fn disc_meets(&self, id: BodyId, center: Vec2, radius: f32) -> bool {
+        let col = &self.world.colliders[id.collider];
+        let ball = Ball::new(radius);
+        let pose = rapier2d::math::Pose::from_translation(center);
+        rapier2d::parry::query::intersection_test(&pose, &ball, col.position(), col.shape())
+            .map_or(true, |r| r.intersecting)
+    }
+
     /// The first collider (in insertion order) that a disc of `radius` at `center` overlaps.
     /// Scans every collider, so it works before the first step; meant for set-up checks.
     pub fn disc_overlaps(&self, center: Vec2, radius: f32) -> Option<Tag> {

@@ -267,6 +267,14 @@ parts = [
 ]
 "#;
     assert_eq!(capacity_of(u), 11);
+    // One polygon with a notch 0.22 m wide and 0.2 m deep: centres range over 0.079 x 0.059 m,
+    // so one disc fits, not two.
+    let notched = r#"
+[[objects]]
+movable = false
+shape = { polygon = [[-0.3, -0.3], [0.3, -0.3], [0.3, -0.11], [0.1, -0.11], [0.1, 0.11], [0.3, 0.11], [0.3, 0.3], [-0.3, 0.3]] }
+"#;
+    assert_eq!(capacity_of(notched), 1);
 }
 
 #[test]
@@ -292,4 +300,78 @@ fn a_robot_outside_the_u_does_not_stop_against_its_back() {
     let mut run = start(&scenario(&body), 1);
     run_for(&mut run, 10.0);
     assert!(run.world.robots[0].attached.is_some());
+}
+
+/// Distance from `p` to the segment `a`-`b`.
+fn segment_distance(
+    p: formica::geometry::Vec2,
+    a: formica::geometry::Vec2,
+    b: formica::geometry::Vec2,
+) -> f32 {
+    let e = b - a;
+    let t = ((p - a).dot(e) / e.dot(e)).clamp(0.0, 1.0);
+    (p - (a + e * t)).length()
+}
+
+/// Whether `p` lies inside the simple polygon `ring` (even-odd rule).
+fn inside_polygon(p: formica::geometry::Vec2, ring: &[formica::geometry::Vec2]) -> bool {
+    let mut inside = false;
+    for i in 0..ring.len() {
+        let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+        if (a.y > p.y) != (b.y > p.y) && p.x < a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x) {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+#[test]
+fn every_disc_the_capacity_counts_clears_the_object_at_any_turn() {
+    // The notched polygon turned through 48 headings and moved off the origin: each disc the
+    // packing counts lies outside the polygon and at least a radius (less the slack) from each
+    // of its edges, by plain geometry rather than the physics engine's queries.
+    let r = 0.0704;
+    for k in 0..48 {
+        let yaw = 7.5 * k as f32;
+        let body = format!(
+            "[[objects]]\nmovable = false\nat = [0.37, -0.21]\nyaw_deg = {yaw}\nshape = {{ polygon = [[-0.3, -0.3], [0.3, -0.3], [0.3, -0.11], [0.1, -0.11], [0.1, 0.11], [0.3, 0.11], [0.3, 0.3], [-0.3, 0.3]] }}\n"
+        );
+        let sc = scenario(&format!(
+            "{body}{}",
+            robot_group("constant", "left = 0.0", &[[2.0, 1.0, 0.0]])
+        ));
+        let run = start(&sc, 1);
+        let w = &run.world;
+        let hull = formica::metrics::object_hull(w, 0);
+        let ring = w.object_outlines(0)[0].clone();
+        let mut edges = Vec::new();
+        for ring in w.object_outlines(0).iter().chain(std::iter::once(&hull)) {
+            for i in 0..ring.len() {
+                edges.push((ring[i], ring[(i + 1) % ring.len()]));
+            }
+        }
+        let counted = std::cell::RefCell::new(Vec::new());
+        let n = formica::metrics::pack_discs(&hull, r, &edges, |p| {
+            let fits = formica::metrics::disc_in_cavity(w, 0, &hull, p, r);
+            if fits {
+                counted.borrow_mut().push(p);
+            }
+            fits
+        });
+        assert!(n <= 1, "yaw {yaw}: {n} discs in a notch that holds one");
+        for p in counted.into_inner() {
+            assert!(
+                !inside_polygon(p, &ring),
+                "yaw {yaw}: {p:?} inside the object"
+            );
+            let clear = (0..ring.len())
+                .map(|i| segment_distance(p, ring[i], ring[(i + 1) % ring.len()]))
+                .fold(f32::INFINITY, f32::min);
+            let slack = formica::metrics::CAVITY_SLACK_M;
+            assert!(
+                clear >= r - slack - 1e-4,
+                "yaw {yaw}: {p:?} {clear} from the object"
+            );
+        }
+    }
 }
