@@ -123,6 +123,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if !writers.is_empty() {
         store.set_writers(&writers)?;
     }
+    let moved = separate_shared_numbers(&mut store)?;
+    if moved > 0 {
+        eprintln!(
+            "{}: warning: {moved} trial(s) shared a number with another (trials a sweep file's \
+             grid no longer had, numbered after it in each store); they are numbered after the \
+             highest",
+            a.out.display()
+        );
+    }
     let after = store.count()?;
     outln!(
         "{}: {after} trials ({} new from {} store(s))",
@@ -131,6 +140,47 @@ pub fn main(a: Args) -> Result<(), CliError> {
         a.inputs.len()
     );
     Ok(())
+}
+
+/// Gives every trial that shares its number with another (ordered by parameter set and seed,
+/// the first keeping it) a number after the highest, so that `--trial N` names one trial.
+/// Returns how many moved.
+fn separate_shared_numbers(store: &mut Store) -> Result<usize, CliError> {
+    let rows: Vec<(i64, String, i64)> = {
+        let mut st = store
+            .conn
+            .prepare(
+                "SELECT trial, params, seed FROM trials WHERE trial IN \
+                 (SELECT trial FROM trials GROUP BY trial HAVING COUNT(*) > 1) \
+                 ORDER BY trial, params, seed",
+            )
+            .context("reading trial numbers")?;
+        let rows = st
+            .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+            .context("reading trial numbers")?;
+        rows.collect::<Result<_, _>>()
+            .context("reading trial numbers")?
+    };
+    let mut next: i64 = store
+        .conn
+        .query_row("SELECT COALESCE(MAX(trial), -1) + 1 FROM trials", [], |r| {
+            r.get(0)
+        })
+        .context("reading trial numbers")?;
+    let mut index: Vec<(&str, u64, usize)> = Vec::new();
+    let mut moved: Vec<(&str, i64)> = Vec::new();
+    for (i, (trial, params, seed)) in rows.iter().enumerate() {
+        if i > 0 && rows[i - 1].0 == *trial {
+            moved.push((params.as_str(), *seed));
+        }
+    }
+    moved.sort();
+    for (params, seed) in &moved {
+        index.push((params, *seed as u64, next as usize));
+        next += 1;
+    }
+    store.reindex(&index)?;
+    Ok(moved.len())
 }
 
 /// Runs `f` with the store at `p` attached to `store` as schema `src`, and detaches it whatever

@@ -376,16 +376,7 @@ fn trials_a_changed_grid_no_longer_has_keep_their_rows_under_numbers_of_their_ow
     let out = sweep(&file, &db, &[]);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
     ok(out);
-    let numbers: Vec<i64> = {
-        let conn = rusqlite::Connection::open(&db).unwrap();
-        let mut st = conn
-            .prepare("SELECT trial FROM trials ORDER BY trial")
-            .unwrap();
-        st.query_map([], |r| r.get(0))
-            .unwrap()
-            .map(Result::unwrap)
-            .collect()
-    };
+    let numbers = trial_numbers(&db);
     let mut unique = numbers.clone();
     unique.dedup();
     assert_eq!(numbers, unique, "two trials share a number");
@@ -399,6 +390,49 @@ fn trials_a_changed_grid_no_longer_has_keep_their_rows_under_numbers_of_their_ow
         )),
         "{err}"
     );
+}
+
+/// Every trial number of store `db`, in order.
+fn trial_numbers(db: &Path) -> Vec<i64> {
+    let conn = rusqlite::Connection::open(db).unwrap();
+    let mut st = conn
+        .prepare("SELECT trial FROM trials ORDER BY trial")
+        .unwrap();
+    st.query_map([], |r| r.get(0))
+        .unwrap()
+        .map(Result::unwrap)
+        .collect()
+}
+
+#[test]
+fn shards_of_a_changed_grid_merge_without_sharing_trial_numbers() {
+    let dir = tmp("regrid-shards");
+    let file = write_sweep(&dir, "1..2");
+    let shards: Vec<PathBuf> = (0..2).map(|k| dir.join(format!("s{k}.db"))).collect();
+    let run_shards = || {
+        for (k, db) in shards.iter().enumerate() {
+            ok(sweep(&file, db, &["--shard", &format!("{k}/2")]));
+        }
+    };
+    run_shards();
+    // Count 12 dropped: each shard keeps its trials of it, numbered from 8 in each store.
+    let text = std::fs::read_to_string(&file)
+        .unwrap()
+        .replace("[6, 12]", "[6, 9]");
+    std::fs::write(&file, text).unwrap();
+    run_shards();
+    let merged = dir.join("merged.db");
+    let out = formica()
+        .arg("merge")
+        .arg(&merged)
+        .args(&shards)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    ok(out);
+    let numbers = trial_numbers(&merged);
+    assert_eq!(numbers, (0..12).collect::<Vec<_>>(), "{err}");
+    assert!(err.contains("2 trial(s) shared a number"), "{err}");
 }
 
 #[test]
