@@ -357,13 +357,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     let name = store.meta("name")?.unwrap_or_else(|| "sweep".into());
     // Trials that can succeed: success rates, survival curves and failed trials count these
-    // only; the others (static filling) are judged by their filling metrics.
+    // only; the others (static filling, `endings`) are judged by their filling metrics.
     let unjudged = sets_without_success_rule(&a.db, &rows);
-    let scored: Vec<StoredTrial> = rows
+    let (scored, endings): (Vec<StoredTrial>, Vec<StoredTrial>) = rows
         .iter()
-        .filter(|r| !unjudged.contains(&r.params_json))
         .cloned()
-        .collect();
+        .partition(|r| !unjudged.contains(&r.params_json));
     let keys: Vec<String> = store
         .keys()?
         .into_iter()
@@ -881,26 +880,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .and_then(|v| v.as_str())
             .map_or_else(|| set_label(r), str::to_string)
     };
-    md.push_str(&crate::gallery::trials_section(
-        Listed::Failed,
-        &a.db,
-        &scored,
-        &sets,
-        &short_label,
-        dir,
-        a.failures,
-        a.gallery,
-    )?);
-    if !unjudged.is_empty() {
-        let endings: Vec<StoredTrial> = rows
-            .iter()
-            .filter(|r| unjudged.contains(&r.params_json))
-            .cloned()
-            .collect();
+    // Failed trials always have their section; trials without a success rule only if any.
+    for (listed, trials) in [(Listed::Failed, &scored), (Listed::Unjudged, &endings)] {
+        if listed == Listed::Unjudged && trials.is_empty() {
+            continue;
+        }
         md.push_str(&crate::gallery::trials_section(
-            Listed::Unjudged,
+            listed,
             &a.db,
-            &endings,
+            trials,
             &sets,
             &short_label,
             dir,

@@ -223,7 +223,7 @@ pub fn trials_section(
     let pictures = if wanted.is_empty() {
         Vec::new()
     } else {
-        draw_pictures(db, &wanted, &dir.join(folder))?
+        draw_pictures(db, &wanted, dir, folder)?
     };
     let _ = writeln!(
         md,
@@ -308,10 +308,16 @@ pub fn trials_section(
 /// is none.
 type Picture = (usize, Result<String, String>);
 
-/// Replays `trials` (in parallel) and draws each one's end into `out`: `(trial, Ok(relative
-/// file) or Err(why not))`. A replay that does not end as stored is drawn all the same, and
-/// said so.
-fn draw_pictures(db: &Path, trials: &[&StoredTrial], out: &Path) -> Result<Vec<Picture>, CliError> {
+/// Replays `trials` (in parallel) and draws each one's end into `dir/folder`: `(trial,
+/// Ok(file relative to `dir`) or Err(why not))`. A replay that does not end as stored is drawn
+/// all the same, and said so.
+fn draw_pictures(
+    db: &Path,
+    trials: &[&StoredTrial],
+    dir: &Path,
+    folder: &str,
+) -> Result<Vec<Picture>, CliError> {
+    let out = &dir.join(folder);
     let mut replayer = Replayer::open(db)?;
     let mut replays = Vec::new();
     let mut results = Vec::new();
@@ -328,9 +334,6 @@ fn draw_pictures(db: &Path, trials: &[&StoredTrial], out: &Path) -> Result<Vec<P
         }
     }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let folder = out
-        .file_name()
-        .map_or_else(String::new, |f| f.to_string_lossy().into_owned());
     let drawn: Vec<Picture> = replays
         .par_iter()
         .with_max_len(1)
