@@ -17,7 +17,7 @@
 
 use crate::gallery::Listed;
 use crate::plots::{self, CategoryPlot, Estimate, LinePlot};
-use crate::stats::{censored_median, wilson95};
+use crate::stats::{censored_median, mean_of, wilson95};
 use crate::store::{Store, StoredTrial};
 use crate::CliError;
 use anyhow::Context;
@@ -809,19 +809,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let _ = writeln!(md, "| {} |", head.join(" | "));
     let _ = writeln!(md, "|{}", "---|".repeat(head.len()));
     for (set, rs) in &by_set {
-        let judged = !unjudged.contains(*set);
+        let has_rule = !unjudged.contains(*set);
         let res: Vec<RunResult> = rs.iter().map(|r| r.result.clone()).collect();
         let refs: Vec<&RunResult> = res.iter().collect();
         let count = |o: Outcome| res.iter().filter(|r| r.outcome == o).count();
         let ok = count(Outcome::Success);
         let [lo, hi] = wilson95(ok, res.len());
         let mut cells: Vec<String> = keys.iter().map(|k| value(rs[0], k)).collect();
-        let mean = |f: &dyn Fn(&RunResult) -> Option<f64>| {
-            let xs: Vec<f64> = res.iter().filter_map(f).collect();
-            (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
-        };
+        let mean = |f: &dyn Fn(&RunResult) -> Option<f64>| mean_of(&res, f);
         cells.push(res.len().to_string());
-        if judged {
+        if has_rule {
             cells.push(ok.to_string());
             cells.push(format!(
                 "{:.0} % ({:.0}–{:.0} %)",

@@ -461,10 +461,7 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
 /// The closing line of `formica run --seeds` for a scenario with no success rule (static
 /// filling): its filling figures instead of a success rate that could only read 0 %.
 fn unjudged_summary(name: &str, results: &[RunResult]) -> String {
-    let mean = |f: &dyn Fn(&RunResult) -> Option<f64>| {
-        let xs: Vec<f64> = results.iter().filter_map(f).collect();
-        (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
-    };
+    let mean = |f: &dyn Fn(&RunResult) -> Option<f64>| stats::mean_of(results, f);
     let mut line = format!(
         "{name}: {} trials; no success rule (no goal to reach and no stop.on_filled), so no success rate",
         results.len()

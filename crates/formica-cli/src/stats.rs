@@ -17,6 +17,12 @@ pub fn wilson95(k: usize, n: usize) -> [f64; 2] {
     [(centre - half).max(0.0), (centre + half).min(1.0)]
 }
 
+/// Mean of `f` over the results that have it (`None` if none has).
+pub fn mean_of(results: &[RunResult], f: impl Fn(&RunResult) -> Option<f64>) -> Option<f64> {
+    let xs: Vec<f64> = results.iter().filter_map(f).collect();
+    (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
+}
+
 /// Median completion time with failures censored at +infinity: the time by which half of all
 /// trials had succeeded, or `None` if fewer than half did.
 pub fn censored_median(results: &[RunResult]) -> Option<f64> {
@@ -77,11 +83,7 @@ pub fn summarize(scenario: &str, results: &[RunResult]) -> Summary {
         success_rate: if n > 0 { k as f64 / n as f64 } else { 0.0 },
         success_ci95: wilson95(k, n),
         median_time_s: censored_median(results),
-        mean_path_efficiency: if n > 0 {
-            results.iter().map(|r| r.path_efficiency).sum::<f64>() / n as f64
-        } else {
-            0.0
-        },
+        mean_path_efficiency: mean_of(results, |r| Some(r.path_efficiency)).unwrap_or(0.0),
         outcomes,
     }
 }
@@ -97,5 +99,23 @@ mod tests {
         assert!((lo - 0.8519).abs() < 1e-3, "{lo}");
         assert!((hi - 0.9877).abs() < 1e-3, "{hi}");
         assert_eq!(wilson95(0, 0), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn mean_of_counts_only_the_results_that_have_the_field() {
+        let r = |x: Option<usize>| RunResult {
+            cavity_robots: x,
+            ..RunResult::default()
+        };
+        let rs = [r(Some(1)), r(None), r(Some(4))];
+        assert_eq!(
+            mean_of(&rs, |r| r.cavity_robots.map(|n| n as f64)),
+            Some(2.5)
+        );
+        assert_eq!(
+            mean_of(&rs[1..2], |r| r.cavity_robots.map(|n| n as f64)),
+            None
+        );
+        assert_eq!(mean_of(&[], |r| Some(r.path_efficiency)), None);
     }
 }
