@@ -1533,13 +1533,6 @@ impl Physics {
             .cast_ray(col.position(), &Ray::new(origin, dir), max_dist, true)
     }
 
-    /// The point of a body's surface nearest to `point`, and whether `point` is inside it.
-    pub fn nearest_point(&self, id: BodyId, point: Vec2) -> (Vec2, bool) {
-        let col = &self.world.colliders[id.collider];
-        let proj = col.shape().project_point(col.position(), point, false);
-        (proj.point, proj.is_inside)
-    }
-
     /// The point of a nearby collider's surface nearest to `point`.
     pub fn nearest_point_of(&self, n: &Nearby, point: Vec2) -> Vec2 {
         let col = &self.world.colliders[n.collider];
