@@ -1558,6 +1558,9 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
 
     #[test]
     fn a_success_rule_needs_a_goal_and_a_movable_object_or_on_filled() {
+        // Test code (this module is cfg(test)): every text below is MIN, a valid file, plus
+        // valid keys, and "mine" is a name the built-in registry lacks, so the unwraps and the
+        // expect cannot fail unless the parser broke, which is the test failing.
         let parse = |t: &str| Scenario::parse(t, "t.toml").unwrap();
         // No light: nothing to reach.
         assert!(!parse(MIN).has_success_rule());
