@@ -369,10 +369,7 @@ fn trials_a_changed_grid_no_longer_has_keep_their_rows_under_numbers_of_their_ow
     let db = dir.join("regrid.db");
     ok(sweep(&file, &db, &["--limit", "4"]));
     // One varied value changed: trials of count 12 are no longer in the grid.
-    let text = std::fs::read_to_string(&file)
-        .unwrap()
-        .replace("[6, 12]", "[6, 9]");
-    std::fs::write(&file, text).unwrap();
+    drop_count_12(&file);
     let out = sweep(&file, &db, &[]);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
     ok(out);
@@ -390,6 +387,15 @@ fn trials_a_changed_grid_no_longer_has_keep_their_rows_under_numbers_of_their_ow
         )),
         "{err}"
     );
+}
+
+/// Changes [`write_sweep`]'s file so that its swarm sizes are 6 and 9: the trials of 12 robots
+/// are no longer in its grid.
+fn drop_count_12(file: &Path) {
+    let text = std::fs::read_to_string(file)
+        .unwrap()
+        .replace("[6, 12]", "[6, 9]");
+    std::fs::write(file, text).unwrap();
 }
 
 /// Every trial number of store `db`, in order.
@@ -415,11 +421,8 @@ fn shards_of_a_changed_grid_merge_without_sharing_trial_numbers() {
         }
     };
     run_shards();
-    // Count 12 dropped: each shard keeps its trials of it, numbered from 8 in each store.
-    let text = std::fs::read_to_string(&file)
-        .unwrap()
-        .replace("[6, 12]", "[6, 9]");
-    std::fs::write(&file, text).unwrap();
+    // Each shard keeps its trials of count 12, numbered from 8 in each store.
+    drop_count_12(&file);
     run_shards();
     let merged = dir.join("merged.db");
     let out = formica()
