@@ -1225,7 +1225,8 @@ impl Scenario {
 
     /// Whether a trial of this scenario can succeed: `stop.on_filled` is set, or `stop.on_goal`
     /// with a goal light and a movable object, or its registry holds loop functions besides
-    /// the built-in `transport` and `fill` (theirs may end a run with success). One without
+    /// the built-in ones ([`crate::experiment::BUILTIN_LOOP_FUNCTIONS`]; theirs may end a run
+    /// with success). One without
     /// (static filling, say) ends only by the wall rule or its time limit, and is judged by its
     /// metrics, not a success rate.
     pub fn has_success_rule(&self) -> bool {
@@ -1234,7 +1235,7 @@ impl Scenario {
             .registry
             .loop_function_names()
             .iter()
-            .any(|n| !matches!(*n, "transport" | "fill"));
+            .any(|n| !crate::experiment::BUILTIN_LOOP_FUNCTIONS.contains(n));
         own_loop_functions
             || stop.on_filled.is_some()
             || (stop.on_goal
