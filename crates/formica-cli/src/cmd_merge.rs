@@ -161,24 +161,24 @@ fn separate_shared_numbers(store: &mut Store) -> Result<usize, CliError> {
         rows.collect::<Result<_, _>>()
             .context("reading trial numbers")?
     };
-    let mut next: i64 = store
+    let next: i64 = store
         .conn
         .query_row("SELECT COALESCE(MAX(trial), -1) + 1 FROM trials", [], |r| {
             r.get(0)
         })
         .context("reading trial numbers")?;
-    let mut index: Vec<(&str, u64, usize)> = Vec::new();
-    let mut moved: Vec<(&str, i64)> = Vec::new();
-    for (i, (trial, params, seed)) in rows.iter().enumerate() {
-        if i > 0 && rows[i - 1].0 == *trial {
-            moved.push((params.as_str(), *seed));
-        }
-    }
+    // Every row after the first of its number moves.
+    let mut moved: Vec<(&str, u64)> = rows
+        .windows(2)
+        .filter(|w| w[0].0 == w[1].0)
+        .map(|w| (w[1].1.as_str(), w[1].2 as u64))
+        .collect();
     moved.sort();
-    for (params, seed) in &moved {
-        index.push((params, *seed as u64, next as usize));
-        next += 1;
-    }
+    let index: Vec<(&str, u64, usize)> = moved
+        .iter()
+        .enumerate()
+        .map(|(k, &(params, seed))| (params, seed, next as usize + k))
+        .collect();
     store.reindex(&index)?;
     Ok(moved.len())
 }
