@@ -119,6 +119,9 @@ struct Entries {
     controllers: Vec<(String, Arc<BuildController>)>,
     loop_functions: Vec<(String, Arc<BuildLoopFunctions>)>,
     models: Vec<(String, RobotModel)>,
+    /// Whether loop functions were registered after the built-ins (new ones, or replacements
+    /// of a built-in under its name).
+    own_loop_functions: bool,
 }
 
 /// The process-wide registry; `None` until first used or installed (then: the built-ins).
@@ -230,6 +233,7 @@ impl Registry {
         // Cannot fail: the built-in names are valid and the built-in models pass the checks
         // (the test `builtins_are_registered` registers them all).
         added.expect("built-in names and models are valid");
+        Arc::make_mut(&mut r.inner).own_loop_functions = false;
         r
     }
 
@@ -261,11 +265,9 @@ impl Registry {
         F: Fn(&Scenario, &World) -> Option<Box<dyn LoopFunctions>> + Send + Sync + 'static,
     {
         check_name("loop functions", name)?;
-        upsert(
-            &mut Arc::make_mut(&mut self.inner).loop_functions,
-            name,
-            Arc::new(build),
-        );
+        let entries = Arc::make_mut(&mut self.inner);
+        upsert(&mut entries.loop_functions, name, Arc::new(build));
+        entries.own_loop_functions = true;
         Ok(self)
     }
 
@@ -289,6 +291,14 @@ impl Registry {
     /// Loop-function names, in the order they run.
     pub fn loop_function_names(&self) -> Vec<&str> {
         names(&self.inner.loop_functions)
+    }
+
+    /// Whether this registry holds loop functions of its user's own: any registered after the
+    /// built-ins, including one that replaces a built-in under its name. (Their stop rules may
+    /// end a run with success, so [`crate::Scenario::has_success_rule`] cannot judge by the
+    /// scenario's `stop` table alone.)
+    pub fn has_own_loop_functions(&self) -> bool {
+        self.inner.own_loop_functions
     }
 
     /// Robot model names, in registration order.

@@ -1224,19 +1224,14 @@ impl Scenario {
     }
 
     /// Whether a trial of this scenario can succeed: `stop.on_filled` is set, or `stop.on_goal`
-    /// with a goal light and a movable object, or its registry holds loop functions besides
-    /// the built-in ones ([`crate::experiment::BUILTIN_LOOP_FUNCTIONS`]; theirs may end a run
-    /// with success). One without
+    /// with a goal light and a movable object, or its registry holds loop functions of the
+    /// user's own ([`Registry::has_own_loop_functions`]; theirs may end a run with success).
+    /// One without
     /// (static filling, say) ends only by the wall rule or its time limit, and is judged by its
     /// metrics, not a success rate.
     pub fn has_success_rule(&self) -> bool {
         let stop = &self.spec.stop;
-        let own_loop_functions = self
-            .registry
-            .loop_function_names()
-            .iter()
-            .any(|n| !crate::experiment::BUILTIN_LOOP_FUNCTIONS.contains(n));
-        own_loop_functions
+        self.registry.has_own_loop_functions()
             || stop.on_filled.is_some()
             || (stop.on_goal
                 && self.goal_light().is_some()
@@ -1560,7 +1555,7 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
     #[test]
     fn a_success_rule_needs_a_goal_and_a_movable_object_or_on_filled() {
         // Test code (this module is cfg(test)): every text below is MIN, a valid file, plus
-        // valid keys, and "mine" is a name the built-in registry lacks, so the unwraps and the
+        // valid keys, and "mine" and "transport" are valid names, so the unwraps and the
         // expect cannot fail unless the parser broke, which is the test failing.
         let parse = |t: &str| Scenario::parse(t, "t.toml").unwrap();
         // No light: nothing to reach.
@@ -1580,6 +1575,13 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         registry
             .loop_functions("mine", |_, _| None)
             .expect("a new name");
+        assert!(registry.parse(MIN, "t.toml").unwrap().has_success_rule());
+        // So may one that replaces a built-in under its name; the built-ins alone do not count.
+        assert!(!Registry::builtin().has_own_loop_functions());
+        let mut registry = Registry::builtin();
+        registry
+            .loop_functions("transport", |_, _| None)
+            .expect("a built-in name");
         assert!(registry.parse(MIN, "t.toml").unwrap().has_success_rule());
     }
 
