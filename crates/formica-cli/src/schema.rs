@@ -462,8 +462,9 @@ pub fn reference_markdown() -> String {
     s.push_str(
         "Ranges are checked when a file is read, and a few rules need more than one key: an \
          object has `shape` or `parts` (a part has exactly one of `box`, `disc`, `polygon`, \
-         `regular`); shapes must not be degenerate (sides under 1 mm, repeated or collinear \
-         polygon vertices, self-intersecting polygons); objects and robots start inside the \
+         `regular`); shapes must not be degenerate (sides under 1 mm, polygons with \
+         fewer than 3 distinct vertices, spikes of no width or crossing edges; a repeated \
+         vertex, or one on the straight edge between its neighbours, is dropped); objects and robots start inside the \
          arena and outside every wall; all robot groups together hold at most 100,000 robots. \
          Each error names `file:line:column`.\n\n",
     );

@@ -68,7 +68,9 @@ pub enum Primitive {
     Box([f32; 2]),
     /// A disc of the given radius.
     Disc(f32),
-    /// A simple polygon (concave allowed), vertices in order, at least 3.
+    /// A simple polygon (concave allowed), vertices in order, at least 3. A vertex that repeats
+    /// the one before it (as the closing vertex of many exported outlines does) or lies on the
+    /// straight edge between its neighbours is dropped ([`polygon_vertices`]).
     Polygon(Vec<[f32; 2]>),
     /// A regular polygon: `{ sides = 6, radius = 0.3 }` (circumradius).
     Regular {
@@ -97,7 +99,8 @@ pub struct ShapeError(pub String);
 
 impl Primitive {
     /// Checks the primitive is well formed: sizes of at least [`MIN_SIZE_M`], a simple
-    /// polygon with no repeated or collinear vertices, regular polygons with sides of at least
+    /// polygon (once repeated vertices and vertices on a straight edge are dropped: no
+    /// crossing edges, no spike of no width), regular polygons with sides of at least
     /// [`MIN_SIZE_M`].
     pub fn validate(&self) -> Result<(), ShapeError> {
         let min = MIN_SIZE_M;
@@ -116,10 +119,7 @@ impl Primitive {
                     )));
                 }
             }
-            Primitive::Polygon(v) => {
-                let pts: Vec<Vec2> = v.iter().map(|p| Vec2::new(p[0], p[1])).collect();
-                check_simple_polygon(&pts)?;
-            }
+            Primitive::Polygon(v) => check_simple_polygon(&polygon_vertices(v))?,
             Primitive::Regular { sides, radius } => {
                 let side = 2.0 * radius * ops::sin(std::f32::consts::PI / *sides.max(&1) as f32);
                 if *sides < 3 || !(*radius >= min && radius.is_finite() && side >= min) {
@@ -148,7 +148,7 @@ impl Primitive {
             }
             Primitive::Disc(r) => regular_outline(disc_segments, *r),
             Primitive::Polygon(v) => {
-                let mut pts: Vec<Vec2> = v.iter().map(|p| Vec2::new(p[0], p[1])).collect();
+                let mut pts = polygon_vertices(v);
                 if signed_area(&pts) < 0.0 {
                     pts.reverse();
                 }
@@ -187,6 +187,46 @@ impl Primitive {
                 }
             }
         })
+    }
+}
+
+/// A polygon's vertices as the shape uses them: a vertex within [`MIN_SIZE_M`] of the one
+/// kept before it is dropped (a repeated vertex, or an outline closed by repeating its first),
+/// and so is one that lies on the straight edge between its neighbours (it turns the outline
+/// by nothing: within the collinearity test of [`check_simple_polygon`], going on the same
+/// way). A vertex that folds the outline back on itself (a spike of no width) is kept, for the
+/// check to refuse.
+pub fn polygon_vertices(v: &[[f32; 2]]) -> Vec<Vec2> {
+    let mut pts: Vec<Vec2> = Vec::with_capacity(v.len());
+    for p in v.iter().map(|p| Vec2::new(p[0], p[1])) {
+        // (Not `>=`: a non-finite vertex is kept, for the check to refuse.)
+        if pts.last().is_none_or(|q| !((p - *q).length() < MIN_SIZE_M)) {
+            pts.push(p);
+        }
+    }
+    while pts.len() > 3 && (pts[0] - pts[pts.len() - 1]).length() < MIN_SIZE_M {
+        pts.pop();
+    }
+    let n = pts.len();
+    if n < 3 {
+        // Fewer than three distinct vertices: as given, for the check to name the ones that
+        // coincide.
+        return v.iter().map(|p| Vec2::new(p[0], p[1])).collect();
+    }
+    if n == 3 || pts.iter().any(|p| !p.is_finite()) {
+        return pts;
+    }
+    let straight = |i: usize| {
+        let (a, b, c) = (pts[(i + n - 1) % n], pts[i], pts[(i + 1) % n]);
+        let (e, f) = (b - a, c - b);
+        e.perp_dot(f).abs() <= 1e-5 * e.length() * f.length() && e.dot(f) > 0.0
+    };
+    let kept: Vec<Vec2> = (0..n).filter(|&i| !straight(i)).map(|i| pts[i]).collect();
+    // Every vertex on one line: no polygon; leave them for the check to refuse.
+    if kept.len() < 3 {
+        pts
+    } else {
+        kept
     }
 }
 
@@ -541,6 +581,28 @@ mod tests {
             if check_simple_polygon(&pts).is_ok() {
                 let hull = convex_hull(&pts);
                 prop_assert!(signed_area(&hull) + 1e-5 >= signed_area(&pts).abs());
+            }
+        }
+
+        /// Dropping repeated and straight-on vertices leaves every polygon the check took
+        /// before alone (so no shape that loaded before changes), and what it leaves of any
+        /// other is what the shape is built from.
+        #[test]
+        fn polygon_vertices_change_no_polygon_that_was_valid(
+            pts in proptest::collection::vec((-1.0f32..1.0, -1.0f32..1.0), 3..12),
+            dup in 0usize..12,
+        ) {
+            let raw: Vec<[f32; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
+            let v: Vec<Vec2> = pts.iter().map(|&(x, y)| Vec2::new(x, y)).collect();
+            if check_simple_polygon(&v).is_ok() {
+                prop_assert_eq!(&polygon_vertices(&raw), &v);
+                // Repeating a vertex (or closing the outline with its first) changes nothing.
+                let mut with_dup = raw.clone();
+                let k = dup % raw.len();
+                with_dup.insert(k + 1, raw[k]);
+                prop_assert_eq!(&polygon_vertices(&with_dup), &v);
+                let p = Primitive::Polygon(with_dup);
+                prop_assert!(p.validate().is_ok());
             }
         }
     }

@@ -246,7 +246,8 @@ pub struct PartSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[cfg_attr(feature = "schema", schemars(range(min = limits::MIN_SIZE_M, max = limits::MAX_SIZE_M)))]
     pub disc: Option<f32>,
-    /// Simple polygon (concave allowed), vertices in order.
+    /// Simple polygon (concave allowed), vertices in order (either way round); a vertex that
+    /// repeats the one before it or lies on the straight edge between its neighbours is dropped.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[cfg_attr(feature = "schema", schemars(length(min = 3, max = limits::MAX_POLYGON_VERTICES)))]
     pub polygon: Option<Vec<[f32; 2]>>,

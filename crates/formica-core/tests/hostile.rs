@@ -97,16 +97,56 @@ fn degenerate_disc_is_refused() {
 fn degenerate_polygons_are_refused() {
     for (poly, msg) in [
         ("[[0, 0], [1, 0], [2, 0]]", "collinear"),
-        ("[[0, 0], [1, 0], [1, 0], [0, 1]]", "coincide"),
-        ("[[0, 0], [0.5, 0], [1, 0], [0, 1]]", "collinear"),
+        ("[[0, 0], [1, 0], [2, 0], [3, 0]]", "collinear"),
+        // A spike of no width: the outline folds back on itself at (1, 0).
         ("[[0, 0], [1, 0], [0.5, 0], [0, 1]]", "collinear"),
         ("[[0, 0], [0.0005, 0], [0, 1]]", "coincide"),
+        ("[[0, 0], [0, 0], [0, 1], [0, 1]]", "coincide"),
         ("[[0, 0], [1, 1]]", "3 to 1000 vertices"),
     ] {
         let body =
             format!("[[objects]]\nat = [-1.0, 0.0]\nshape = {{ polygon = {poly} }}\n{ROBOTS}");
         refused_at(&body, "polygon", msg);
     }
+}
+
+#[test]
+fn repeated_vertices_and_vertices_on_a_straight_edge_are_dropped() {
+    // Outlines exported from drawing tools repeat their first vertex at the end and carry
+    // points in the middle of straight edges: the shape is the triangle all the same.
+    let triangle = [
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(0.0, 1.0),
+    ];
+    for poly in [
+        vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+        vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.0, 0.0]],
+        vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+        vec![[0.0, 0.0], [0.5, 0.0], [1.0, 0.0], [0.0, 1.0]],
+        vec![
+            [0.0, 0.0],
+            [0.25, 0.0],
+            [0.5, 0.0],
+            [1.0, 0.0],
+            [0.5, 0.5],
+            [0.0, 1.0],
+            [0.0, 0.5],
+        ],
+    ] {
+        let p = Primitive::Polygon(poly.clone());
+        assert!(p.validate().is_ok(), "{poly:?}");
+        assert_eq!(p.outline(0), triangle, "{poly:?}");
+        let shape = p.shared_shape().expect("a valid triangle");
+        let area = shape.mass_properties(1.0).mass();
+        assert!((area - 0.5).abs() < 1e-6, "{poly:?}: {area}");
+    }
+    // And a scenario file takes them.
+    let body = format!(
+        "[[objects]]\nat = [-1.0, 0.0]\nshape = {{ polygon = [[0, 0], [0.25, 0], [0.5, 0], [0.5, 0.5], [0, 0.5], [0, 0]] }}\n{ROBOTS}"
+    );
+    let t = text(&body);
+    Scenario::parse(&t, "t.toml").unwrap_or_else(|e| panic!("{e}\n{t}"));
 }
 
 #[test]
