@@ -13,13 +13,18 @@ use std::path::PathBuf;
 pub struct Args {
     /// Scenario file (TOML).
     pub scenario: PathBuf,
+    /// Override any scenario key, as `formica run --set` does (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 /// Loads the scenario, builds its world (placing robots with the file's seed) and describes it.
 pub fn main(a: Args) -> Result<(), CliError> {
-    let sc = Scenario::load(&a.scenario).map_err(|e| match sweep_file_hint(&a.scenario) {
-        Some(hint) => CliError::Input(hint),
-        None => e.into(),
+    let sc = crate::cmd_run::load(&a.scenario, &a.set).map_err(|e| {
+        match sweep_file_hint(&a.scenario) {
+            Some(hint) => CliError::Input(hint),
+            None => e,
+        }
     })?;
     let run = Run::new(&sc, &RunOptions::default())?;
     let w = &run.world;
@@ -82,6 +87,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
                     pushers.join(" or ")
                 );
             }
+        }
+        for warning in object_warnings(&sc, w, i) {
+            outln!("    warning: {warning}");
         }
     }
     for (g, grp) in w.groups.iter().enumerate() {
@@ -245,9 +253,105 @@ fn goal_reached_warning(w: &World, radius: f32) -> Option<String> {
 /// set-ups under which a run cannot do what it is meant to (robots that look for a goal colour
 /// no light shows, or cannot see the object and a goal at once).
 pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
-    (0..sc.spec.robots.len())
-        .flat_map(|g| group_warnings(sc, Some(w), g))
+    (0..w.objects.len())
+        .flat_map(|i| object_warnings(sc, w, i))
+        .chain((0..sc.spec.robots.len()).flat_map(|g| group_warnings(sc, Some(w), g)))
         .collect()
+}
+
+/// The warnings about object `i` that `check` prints under the object and `run` and `sweep`
+/// print before they run: parts that do not hold together, and, for the target of a goal,
+/// a goal out of its reach or a swarm too weak to move it.
+fn object_warnings(sc: &Scenario, w: &World, i: usize) -> Vec<String> {
+    [
+        pieces_warning(w, i),
+        goal_out_of_reach_warning(sc, w, i),
+        too_heavy_warning(sc, w, i),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+/// A warning if movable object `i`'s parts do not all touch: the pieces move as one rigid body, as if
+/// joined by something no sensor sees, and robots meet the gaps between them (two 0.3 m
+/// boxes 0.5 m apart as one object: `occlusion` 0 of 10, the beacon's centre of mass between
+/// them).
+fn pieces_warning(w: &World, i: usize) -> Option<String> {
+    let o = &w.objects[i];
+    if !o.movable {
+        return None;
+    }
+    let pieces = formica::geometry::part_pieces(&o.parts, 1e-3);
+    (pieces.len() > 1).then(|| {
+        let list: Vec<String> = pieces
+            .iter()
+            .map(|p| {
+                let parts: Vec<String> = p.iter().map(|k| k.to_string()).collect();
+                format!("[{}]", parts.join(", "))
+            })
+            .collect();
+        format!(
+            "object {i} \"{}\": its parts do not all touch; they form {} separate pieces \
+             (parts {}), which move as one rigid body, joined by nothing a robot can sense \
+             (join the parts, or make each piece an object of its own)",
+            o.name,
+            pieces.len(),
+            list.join(" ")
+        )
+    })
+}
+
+/// For the target of the goal: a warning if the goal lies farther than the success radius
+/// from every place the object's centre can reach inside the arena (no trial can succeed),
+/// or, short of that, outside the arena.
+fn goal_out_of_reach_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
+    let (goal, radius) = (w.goal()?, formica::experiment::goal_radius(sc, w)?);
+    if w.target != Some(i) || !w.objects[i].movable {
+        return None;
+    }
+    let (centre, size) = w.arena;
+    let outside = (goal - centre).abs().cmpgt(size / 2.0).any();
+    let half = (size / 2.0 - Vec2::splat(object_inner_distance(w, i))).max(Vec2::ZERO);
+    let nearest = goal.clamp(centre - half, centre + half);
+    let d = (goal - nearest).length();
+    if d <= radius {
+        return outside.then(|| {
+            format!(
+                "the goal light at ({}, {}) lies outside the arena: its walls shade it from \
+                 robots and object wherever they are lower than the light's line of sight",
+                goal.x, goal.y
+            )
+        });
+    }
+    Some(format!(
+        "the goal light at ({}, {}) is {d:.2} m from the nearest place inside the arena \
+             that object {i}'s centre can reach, farther than the success radius ({radius:.2} \
+             m): no trial can succeed (move the light into the arena, or set stop.goal_radius)",
+        goal.x, goal.y
+    ))
+}
+
+/// For the target of the goal: a warning if every robot of the scenario pushing at once
+/// gives no more than the object's floor friction (it cannot move).
+fn too_heavy_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
+    if w.target != Some(i) || w.goal().is_none() || !w.objects[i].movable {
+        return None;
+    }
+    let o = &w.objects[i];
+    let friction = sc.spec.objects.get(i)?.get_ref().floor_mu * o.mass * formica::physics::GRAVITY;
+    let all: f32 = (0..w.robots.len())
+        .map(|r| w.robot_model(r).max_force)
+        .sum();
+    (all <= friction).then(|| {
+        format!(
+            "object {i} \"{}\" needs more than {friction:.2} N to move (floor friction), but \
+             all {} robots pushing at once give at most {all:.2} N: it cannot move, and no \
+             trial can succeed (add robots, or lower its mass or floor_mu)",
+            o.name,
+            w.robots.len()
+        )
+    })
 }
 
 /// The warnings about robot group `g` that `check` prints under the group and `run` and
@@ -264,21 +368,16 @@ fn group_warnings(sc: &Scenario, w: Option<&World>, g: usize) -> Vec<String> {
     .collect()
 }
 
-/// [`run_warnings`] for a scenario whose world is not built yet: builds one only if a group
-/// sees the goal with its camera or runs `occlusion` (the warnings that need the world: camera
-/// range, object reach). (A world that cannot be built is left to the run, which reports it
-/// with its seed; the warnings that need no world are given all the same.)
+/// [`run_warnings`] for a scenario whose world is not built yet: builds it with the file's
+/// seed. (A world that cannot be built is left to the run, which reports it with its seed;
+/// the warnings that need no world are given all the same.)
 pub(crate) fn warnings_before_run(sc: &Scenario) -> Vec<String> {
-    let needs_world = (0..sc.spec.robots.len()).any(|g| {
-        goal_camera_params(sc, g).is_some()
-            || sc.spec.robots[g].get_ref().controller.get_ref() == "occlusion"
-    });
-    let run = needs_world
-        .then(|| Run::new(sc, &RunOptions::default()).ok())
-        .flatten();
-    (0..sc.spec.robots.len())
-        .flat_map(|g| group_warnings(sc, run.as_ref().map(|r| &r.world), g))
-        .collect()
+    match Run::new(sc, &RunOptions::default()) {
+        Ok(run) => run_warnings(sc, &run.world),
+        Err(_) => (0..sc.spec.robots.len())
+            .flat_map(|g| group_warnings(sc, None, g))
+            .collect(),
+    }
 }
 
 /// For a group running a transport controller (`occlusion`, `fill-transport`): a warning if

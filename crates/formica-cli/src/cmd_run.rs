@@ -89,6 +89,59 @@ pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
     seed_range(s).map_err(|m| CliError::Input(format!("--seeds: {m}")))
 }
 
+/// One `--set KEY=VALUE`: the value is TOML (`10`, `[1.0, 2.0]`, `"camera"`, `{ a = 1 }`); a
+/// bare word that TOML does not take (`camera`) is the string it spells. Anything else that is
+/// not TOML (a number out of range, an unclosed list, a line break) is an error naming it.
+pub fn parse_set(item: &str) -> Result<(String, toml::Value), CliError> {
+    let (key, value) = item
+        .split_once('=')
+        .ok_or_else(|| CliError::Input(format!("--set: expected KEY=VALUE, got `{item}`")))?;
+    if item.contains(['\n', '\r']) {
+        return Err(CliError::Input(format!(
+            "--set `{}`: one KEY=VALUE per --set, without line breaks",
+            item.escape_debug()
+        )));
+    }
+    let (key, value) = (key.trim(), value.trim());
+    if key.is_empty() {
+        return Err(CliError::Input(format!(
+            "--set: expected KEY=VALUE, got `{item}` (no key)"
+        )));
+    }
+    let parsed = toml::from_str::<toml::Table>(&format!("v = {value}"))
+        .map_err(|e| e.message().to_string())
+        .and_then(|mut t| t.remove("v").ok_or_else(String::new));
+    match parsed {
+        Ok(v) => Ok((key.to_string(), v)),
+        Err(_) if is_bare_word(value) => {
+            Ok((key.to_string(), toml::Value::String(value.to_string())))
+        }
+        Err(_) if value.trim_start_matches(['-', '+']).parse::<u128>().is_ok() => {
+            Err(CliError::Input(format!(
+                "--set {key}={value}: number out of range (whole numbers are 64-bit, up to \
+                 9223372036854775807)"
+            )))
+        }
+        Err(e) => Err(CliError::Input(format!(
+            "--set {key}={value}: not a TOML value ({}); quote a string as '{key}=\"...\"'",
+            if e.is_empty() {
+                "nothing given"
+            } else {
+                e.trim()
+            }
+        ))),
+    }
+}
+
+/// Whether `v` reads as a word meant as a string: letters, digits, `-`, `_`, `.`, `/` and
+/// `:`, starting with a letter (so that a malformed number, list or table is not taken for
+/// one).
+fn is_bare_word(v: &str) -> bool {
+    v.starts_with(|c: char| c.is_alphabetic())
+        && v.chars()
+            .all(|c| c.is_alphanumeric() || matches!(c, '-' | '_' | '.' | '/' | ':'))
+}
+
 /// Loads the scenario with the `--set` overrides applied.
 pub fn load(path: &std::path::Path, set: &[String]) -> Result<Scenario, CliError> {
     if set.is_empty() {
@@ -99,14 +152,8 @@ pub fn load(path: &std::path::Path, set: &[String]) -> Result<Scenario, CliError
         .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
     let mut overrides = Vec::with_capacity(set.len());
     for item in set {
-        let (key, value) = item
-            .split_once('=')
-            .ok_or_else(|| CliError::Input(format!("--set: expected KEY=VALUE, got `{item}`")))?;
-        let value = toml::from_str::<toml::Table>(&format!("v = {value}"))
-            .ok()
-            .and_then(|mut t| t.remove("v"))
-            .unwrap_or_else(|| toml::Value::String(value.trim().to_string()));
-        overrides.push((key.trim().to_string(), value));
+        let (key, value) = parse_set(item)?;
+        overrides.push((key, value));
     }
     let origin = set.join("\n");
     Ok(Scenario::parse_with_overrides(

@@ -329,6 +329,97 @@ fn set_overrides_any_scenario_key_and_bad_values_are_input_errors() {
 }
 
 #[test]
+fn set_values_that_are_not_toml_are_refused_not_taken_for_strings() {
+    let scenario = repo("scenarios/seed-transport.toml");
+    for (set, says) in [
+        ("robots.0.count=99999999999999999999", "number out of range"),
+        ("robots.0.count=[1,2", "not a TOML value"),
+        ("robots.0.count=5\nrun.seed=3", "without line breaks"),
+        ("=3", "no key"),
+    ] {
+        let out = formica()
+            .arg("check")
+            .arg(&scenario)
+            .args(["--set", set])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{set}: {err}");
+        assert!(err.contains(says), "{set}: {err}");
+    }
+    // A bare word is still the string it spells, and check takes --set as run does.
+    let out = formica()
+        .arg("check")
+        .arg(&scenario)
+        .args([
+            "--set",
+            "robots.0.model=foot-bot",
+            "--set",
+            "robots.0.count=3",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && text.contains("3 x foot-bot"),
+        "{text}"
+    );
+}
+
+#[test]
+fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
+    let scenario = repo("scenarios/seed-transport.toml");
+    let warned = |sets: &[&str], says: &str| {
+        let mut cmd = formica();
+        cmd.arg("check").arg(&scenario);
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
+        let out = cmd.output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{sets:?}");
+        text.lines()
+            .any(|l| l.contains("warning:") && l.contains(says))
+    };
+    // The shipped file: none of these.
+    for says in [
+        "separate pieces",
+        "cannot move",
+        "outside the arena",
+        "no trial can succeed",
+    ] {
+        assert!(!warned(&[], says), "{says}");
+    }
+    // Two boxes 0.5 m apart made one object; touching, they are one piece.
+    let text = std::fs::read_to_string(&scenario).unwrap();
+    let parts = |x: f32| {
+        text.replace(
+            "shape = { box = [0.5, 0.5] }",
+            &format!("parts = [{{ box = [0.3, 0.3], at = [-{x}, 0.0] }}, {{ box = [0.3, 0.3], at = [{x}, 0.0] }}]"),
+        )
+    };
+    let dir = tmp("pieces");
+    std::fs::create_dir_all(&dir).unwrap();
+    assert!(check_text(&dir, &parts(0.4)).contains("form 2 separate pieces (parts [0] [1])"));
+    assert!(!check_text(&dir, &parts(0.15)).contains("separate pieces"));
+    // Two robots against the 50 kg box (2.94 N of friction; 1.5 N each).
+    assert!(warned(&["robots.0.count=1"], "cannot move"));
+    assert!(!warned(&["robots.0.count=2"], "cannot move"));
+    // A goal light far beyond the east wall, and one just beyond it.
+    assert!(warned(&["lights.0.at=[9.0, 0.0]"], "no trial can succeed"));
+    assert!(warned(&["lights.0.at=[3.2, 0.0]"], "outside the arena"));
+    // `run` prints the same warnings before it runs.
+    let out = formica()
+        .arg("run")
+        .arg(&scenario)
+        .args(["--set", "robots.0.count=1", "--duration", "0.1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && err.contains("cannot move"), "{err}");
+}
+
+#[test]
 fn a_closed_stdout_neither_panics_nor_loses_the_out_files() {
     // As `formica run ... --out DIR | head -0`: the reader is gone before the first line.
     let out = tmp("closed-stdout");

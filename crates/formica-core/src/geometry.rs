@@ -288,6 +288,70 @@ pub fn part_outlines(parts: &[Part], disc_segments: usize) -> Vec<Vec<Vec2>> {
         .collect()
 }
 
+/// The parts of an object grouped into pieces that hold together: two parts belong to one
+/// piece when they touch or overlap (closer than `gap` m), directly or through other parts.
+/// Each piece lists its parts' indices in order, pieces ordered by their first part; an
+/// object whose parts all hold together is one piece. Parts that are not well formed count
+/// as pieces of their own.
+pub fn part_pieces(parts: &[Part], gap: f32) -> Vec<Vec<usize>> {
+    let n = parts.len();
+    let shapes: Vec<Option<(rapier2d::math::Pose, SharedShape)>> = parts
+        .iter()
+        .map(|p| {
+            let pose =
+                rapier2d::math::Pose::new(Vec2::new(p.at[0], p.at[1]), p.yaw_deg.to_radians());
+            p.shape.shared_shape().ok().map(|s| (pose, s))
+        })
+        .collect();
+    // Bounding boxes first, so that only parts near each other get the exact query.
+    let boxes: Vec<(Vec2, Vec2)> = part_outlines(parts, 24)
+        .iter()
+        .map(|o| {
+            let lo = o.iter().fold(Vec2::splat(f32::INFINITY), |a, p| a.min(*p));
+            let hi = o
+                .iter()
+                .fold(Vec2::splat(f32::NEG_INFINITY), |a, p| a.max(*p));
+            (lo - Vec2::splat(gap), hi + Vec2::splat(gap))
+        })
+        .collect();
+    let mut root: Vec<usize> = (0..n).collect();
+    fn find(root: &mut [usize], mut i: usize) -> usize {
+        while root[i] != i {
+            root[i] = root[root[i]];
+            i = root[i];
+        }
+        i
+    }
+    for i in 0..n {
+        for j in (i + 1)..n {
+            let ((lo_a, hi_a), (lo_b, hi_b)) = (boxes[i], boxes[j]);
+            if lo_a.x > hi_b.x || lo_b.x > hi_a.x || lo_a.y > hi_b.y || lo_b.y > hi_a.y {
+                continue;
+            }
+            let (Some((pa, sa)), Some((pb, sb))) = (&shapes[i], &shapes[j]) else {
+                continue;
+            };
+            let near = rapier2d::parry::query::distance(pa, sa.as_ref(), pb, sb.as_ref())
+                .is_ok_and(|d| d.distance <= gap);
+            if near {
+                let (a, b) = (find(&mut root, i), find(&mut root, j));
+                root[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut pieces: Vec<Vec<usize>> = Vec::new();
+    let mut piece_of_root = vec![usize::MAX; n];
+    for i in 0..n {
+        let r = find(&mut root, i);
+        if piece_of_root[r] == usize::MAX {
+            piece_of_root[r] = pieces.len();
+            pieces.push(Vec::new());
+        }
+        pieces[piece_of_root[r]].push(i);
+    }
+    pieces
+}
+
 /// Signed area of a polygon (positive when counter-clockwise).
 pub fn signed_area(pts: &[Vec2]) -> f32 {
     let n = pts.len();
@@ -504,6 +568,50 @@ mod tests {
         }
         assert!(wrap_angle(f32::NAN).is_nan());
         assert!(wrap_angle(f32::INFINITY).is_nan());
+    }
+
+    #[test]
+    fn parts_that_touch_make_one_piece_and_parts_apart_make_two() {
+        let part = |shape: Primitive, x: f32, y: f32| Part {
+            shape,
+            at: [x, y],
+            yaw_deg: 0.0,
+        };
+        let bx = || Primitive::Box([0.3, 0.3]);
+        // Two boxes side by side (touching), a third 0.5 m off, a disc bridging nothing.
+        let touching = [part(bx(), 0.0, 0.0), part(bx(), 0.3, 0.0)];
+        assert_eq!(part_pieces(&touching, 1e-3), vec![vec![0, 1]]);
+        let apart = [part(bx(), -0.4, 0.0), part(bx(), 0.4, 0.0)];
+        assert_eq!(part_pieces(&apart, 1e-3), vec![vec![0], vec![1]]);
+        // Held together through a third part laid across the gap, listed last.
+        let bridged = [
+            part(bx(), -0.4, 0.0),
+            part(bx(), 0.4, 0.0),
+            part(Primitive::Box([1.1, 0.1]), 0.0, 0.2),
+        ];
+        assert_eq!(part_pieces(&bridged, 1e-3), vec![vec![0, 1, 2]]);
+        // A gap of 2 mm is a gap; 0.5 mm is within the tolerance.
+        let near = |d: f32| [part(bx(), 0.0, 0.0), part(bx(), 0.3 + d, 0.0)];
+        assert_eq!(part_pieces(&near(0.002), 1e-3).len(), 2);
+        assert_eq!(part_pieces(&near(0.0005), 1e-3).len(), 1);
+        // A disc touching a concave polygon's inner corner.
+        let l = Primitive::Polygon(vec![
+            [0.0, 0.0],
+            [0.5, 0.0],
+            [0.5, 0.2],
+            [0.2, 0.2],
+            [0.2, 0.5],
+            [0.0, 0.5],
+        ]);
+        let r = 0.1;
+        let corner = 0.2 + r / std::f32::consts::SQRT_2;
+        let with_disc = [
+            part(l.clone(), 0.0, 0.0),
+            part(Primitive::Disc(r), corner, corner),
+        ];
+        assert_eq!(part_pieces(&with_disc, 1e-3).len(), 1);
+        let off = [part(l, 0.0, 0.0), part(Primitive::Disc(r), 0.4, 0.4)];
+        assert_eq!(part_pieces(&off, 1e-3).len(), 2);
     }
 
     #[test]
