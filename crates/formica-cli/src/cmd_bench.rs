@@ -228,9 +228,6 @@ fn measure_child(workload: Workload, n: usize, a: &Args) -> Result<Line, CliErro
         .map_err(CliError::from)
 }
 
-/// Most robots of one benchmark size.
-const MAX_ROBOTS: usize = 1_000_000;
-
 /// Most threads of one benchmark world.
 const MAX_THREADS: usize = 256;
 
@@ -249,9 +246,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
             "--robots: expected positive counts, e.g. 20,100,1000".into(),
         ));
     }
-    if a.robots.iter().any(|&n| n > MAX_ROBOTS) {
+    let max = workload.max_robots();
+    if let Some(n) = a.robots.iter().find(|&&n| n > max) {
         return Err(CliError::Input(format!(
-            "--robots: at most {MAX_ROBOTS} robots a size"
+            "--robots: the {} workload holds at most {max} robots (a scenario's limits: {} \
+             robots, {} objects), got {n}",
+            workload.name(),
+            formica::limits::MAX_ROBOTS,
+            formica::limits::MAX_ITEMS
         )));
     }
     if !(1..=MAX_THREADS).contains(&a.threads) {

@@ -41,15 +41,26 @@ fn cell(v: &SqlValue) -> String {
     }
 }
 
-fn open_out(path: &PathBuf) -> Result<Box<dyn Write>, CliError> {
+/// Opens `path` (`-`: standard output) for writing, creating its folder, unless it is the
+/// store `db` being read (checked again once its folder exists, so that no path to it slips
+/// through).
+fn open_out(path: &PathBuf, db: &std::path::Path) -> Result<Box<dyn Write>, CliError> {
     Ok(if path.as_os_str() == "-" {
         Box::new(std::io::stdout().lock())
     } else {
         if let Some(d) = path.parent() {
+            if d.is_file() {
+                return Err(CliError::Input(format!(
+                    "{}: `{}` is a file, not a folder",
+                    path.display(),
+                    d.display()
+                )));
+            }
             if !d.as_os_str().is_empty() {
                 std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
             }
         }
+        crate::refuse_overwriting(path, db, "result store")?;
         Box::new(std::io::BufWriter::new(
             std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
         ))
@@ -103,10 +114,15 @@ pub fn write_trials(store: &Store, out: &mut dyn Write) -> Result<usize, CliErro
 
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
+    for out in std::iter::once(&a.csv).chain(&a.trajectories) {
+        if out.as_os_str() != "-" {
+            crate::refuse_overwriting(out, &a.db, "result store")?;
+        }
+    }
     let store = Store::open_existing(&a.db)?;
-    let n = write_trials(&store, &mut open_out(&a.csv)?)?;
+    let n = write_trials(&store, &mut open_out(&a.csv, &a.db)?)?;
     if let Some(tp) = &a.trajectories {
-        let mut out = open_out(tp)?;
+        let mut out = open_out(tp, &a.db)?;
         writeln!(out, "params,seed,t,x,y,theta").context("writing CSV")?;
         for (p, seed, samples) in store.trajectories(usize::MAX >> 1)? {
             let pq = csv_field(&p);

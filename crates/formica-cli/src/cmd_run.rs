@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long, conflicts_with = "seeds")]
     pub seed: Option<u64>,
     /// Run seeds A to B inclusive in parallel, e.g. `--seeds 1..100`.
-    #[arg(long, value_name = "A..B")]
+    #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     pub seeds: Option<String>,
     /// Simulated time limit in seconds (default: the file's `run.duration_s`).
     #[arg(long)]
@@ -84,9 +84,22 @@ pub fn seed_range(s: &str) -> Result<std::ops::RangeInclusive<u64>, String> {
     Ok(a..=b)
 }
 
+/// Most seeds of one `run --seeds`: it keeps every result for its closing summary.
+const MAX_RUN_SEEDS: u64 = 1_000_000;
+
 /// Parses `--seeds A..B`.
 pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
-    seed_range(s).map_err(|m| CliError::Input(format!("--seeds: {m}")))
+    let seeds = seed_range(s).map_err(|m| CliError::Input(format!("--seeds: {m}")))?;
+    if seeds.end() - seeds.start() >= MAX_RUN_SEEDS {
+        return Err(CliError::Input(format!(
+            "--seeds: `{s}` is {} seeds; formica run keeps every result for its summary, at \
+             most {MAX_RUN_SEEDS} (a sweep file stores each trial as it ends, resumes, and \
+             takes up to {} trials)",
+            (seeds.end() - seeds.start()).saturating_add(1),
+            formica::limits::MAX_TRIALS
+        )));
+    }
+    Ok(seeds)
 }
 
 /// One `--set KEY=VALUE`: the value is TOML (`10`, `[1.0, 2.0]`, `"camera"`, `{ a = 1 }`); a
@@ -197,6 +210,7 @@ fn describe(r: &RunResult) -> String {
 
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
+    crate::check_threads(a.threads)?;
     if let Some(db) = &a.db {
         return replay_trials(&a, db);
     }
@@ -445,35 +459,41 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("starting worker threads")?;
-    let results: Vec<Result<RunResult, formica::ScenarioError>> = pool.install(|| {
-        seeds
-            .clone()
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(|seed| {
-                let opts = RunOptions {
-                    overrides: overrides(a, Some(seed)),
-                    ..Default::default()
-                };
-                formica::run(sc, &opts).map(|(r, _)| r)
-            })
-            .collect()
-    });
-    let results: Vec<RunResult> = results.into_iter().collect::<Result<_, _>>()?;
-    let summary = stats::summarize(&sc.name, &results);
     let provenance = Provenance::of(sc, &overrides(a, None));
-    if a.json {
-        for r in &results {
-            outln!("{}", json_line(r, &provenance)?);
+    // Seeds run in chunks of a few per thread, each chunk's lines printed in seed order as
+    // soon as it is done: a long call shows its trials as they end, not all at the close.
+    let chunk = (8 * pool.current_num_threads()).max(64);
+    let all: Vec<u64> = seeds.clone().collect();
+    let mut results: Vec<RunResult> = Vec::with_capacity(all.len());
+    for part in all.chunks(chunk) {
+        let done: Vec<Result<RunResult, formica::ScenarioError>> = pool.install(|| {
+            part.par_iter()
+                .map(|&seed| {
+                    let opts = RunOptions {
+                        overrides: overrides(a, Some(seed)),
+                        ..Default::default()
+                    };
+                    formica::run(sc, &opts).map(|(r, _)| r)
+                })
+                .collect()
+        });
+        for r in done {
+            let r = r?;
+            if a.json {
+                outln!("{}", json_line(&r, &provenance)?);
+            } else {
+                outln!("{}", describe(&r));
+            }
+            results.push(r);
         }
+    }
+    let summary = stats::summarize(&sc.name, &results);
+    if a.json {
         outln!(
             "{}",
             serde_json::to_string(&summary).context("encoding JSON")?
         );
     } else {
-        for r in &results {
-            outln!("{}", describe(r));
-        }
         if !sc.has_success_rule() {
             outln!("{}", unjudged_summary(&sc.name, &results));
         } else {

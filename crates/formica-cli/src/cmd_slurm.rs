@@ -50,12 +50,44 @@ fn absolute(p: &Path) -> Result<PathBuf, CliError> {
     })
 }
 
+/// How every script this command writes begins (the job name follows); a file that does not
+/// is not overwritten.
+const SCRIPT_HEAD: &str = "#!/bin/bash\n#SBATCH --job-name=formica-";
+
+/// Checks `--time` against Slurm's formats: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`,
+/// or `UNLIMITED` / `INFINITE`.
+fn check_time(t: &str) -> Result<(), CliError> {
+    let digits = |x: &str| !x.is_empty() && x.len() <= 9 && x.bytes().all(|b| b.is_ascii_digit());
+    let ok = match t {
+        "UNLIMITED" | "INFINITE" | "unlimited" | "infinite" => true,
+        _ => match t.split_once('-') {
+            Some((days, rest)) => {
+                let parts: Vec<&str> = rest.split(':').collect();
+                digits(days) && parts.len() <= 3 && parts.iter().all(|p| digits(p))
+            }
+            None => {
+                let parts: Vec<&str> = t.split(':').collect();
+                parts.len() <= 3 && parts.iter().all(|p| digits(p))
+            }
+        },
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(CliError::Input(format!(
+            "--time `{}`: expected a Slurm time limit such as 04:00:00, 90 (minutes) or \
+             1-12:00:00",
+            t.escape_debug()
+        )))
+    }
+}
+
 /// The job-array script.
 pub fn script(exe: &Path, sweep: &Path, db_dir: &Path, name: &str, a: &Args) -> String {
     let n = a.array;
     let mut s = String::new();
-    s += "#!/bin/bash\n";
-    s += &format!("#SBATCH --job-name=formica-{name}\n");
+    s += SCRIPT_HEAD;
+    s += &format!("{name}\n");
     s += &format!("#SBATCH --array=0-{}\n", n - 1);
     s += "#SBATCH --ntasks=1\n";
     s += &format!("#SBATCH --cpus-per-task={}\n", a.cpus);
@@ -88,9 +120,23 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if a.cpus == 0 {
         return Err(CliError::Input("--cpus: expected at least 1".into()));
     }
+    check_time(&a.time)?;
+    if let Some(bad) = a.sbatch.iter().find(|x| x.contains(['\n', '\r'])) {
+        return Err(CliError::Input(format!(
+            "--sbatch `{}`: one option per --sbatch, without line breaks",
+            bad.escape_debug()
+        )));
+    }
     // Validate the sweep now rather than in every task.
     let sweep = Sweep::load(&a.sweep)?;
     let n_trials = sweep.sets.len() * sweep.seeds.len();
+    if a.array > n_trials {
+        return Err(CliError::Input(format!(
+            "--array {}: more tasks than the sweep has trials ({n_trials}); tasks beyond that \
+             would run nothing (use at most {n_trials})",
+            a.array
+        )));
+    }
     let sweep_abs = absolute(&a.sweep)?;
     let stem = a
         .sweep
@@ -106,6 +152,21 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .script
         .clone()
         .unwrap_or_else(|| dir.join(format!("{stem}.slurm")));
+    crate::refuse_overwriting(&script_path, &a.sweep, "sweep file")?;
+    if let Ok(old) = std::fs::read_to_string(&script_path) {
+        if !old.starts_with(SCRIPT_HEAD) {
+            return Err(CliError::Input(format!(
+                "{}: exists and is not a script that formica slurm wrote; give another --script \
+                 or remove it",
+                script_path.display()
+            )));
+        }
+    } else if script_path.exists() {
+        return Err(CliError::Input(format!(
+            "{}: exists and is not a script that formica slurm wrote; give another --script",
+            script_path.display()
+        )));
+    }
     let exe = std::env::current_exe().context("finding the formica executable")?;
     let text = script(&exe, &sweep_abs, &db_dir, &sweep.name, &a);
     std::fs::create_dir_all(&db_dir).with_context(|| format!("creating {}", db_dir.display()))?;

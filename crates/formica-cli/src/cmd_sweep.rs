@@ -124,6 +124,7 @@ fn run_trial(
 
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
+    crate::check_threads(a.threads)?;
     let sweep = Sweep::load(&a.sweep)?;
     let shard = a.shard.as_deref().map(parse_shard).transpose()?;
     let db = a.db.clone().unwrap_or_else(|| default_db(&a.sweep));

@@ -54,27 +54,39 @@ struct Cli {
     command: Command,
 }
 
+// Every subcommand takes negative numbers as values (`--duration -1` is refused with the
+// option's own message, not taken for an unknown flag `-1`).
 #[derive(Subcommand)]
 enum Command {
     /// Run a scenario headless (one seed, or a range of seeds in parallel).
+    #[command(allow_negative_numbers = true)]
     Run(cmd_run::Args),
     /// Validate a scenario file and describe what it sets up.
+    #[command(allow_negative_numbers = true)]
     Check(cmd_check::Args),
     /// Measure robot-ticks per second on the standard scaled transport world.
+    #[command(allow_negative_numbers = true)]
     Bench(cmd_bench::Args),
     /// Run a parameter sweep into a SQLite result store (resumable).
+    #[command(allow_negative_numbers = true)]
     Sweep(cmd_sweep::Args),
     /// Export a result store to CSV.
+    #[command(allow_negative_numbers = true)]
     Export(cmd_export::Args),
     /// Plots and a Markdown summary from a result store.
+    #[command(allow_negative_numbers = true)]
     Report(cmd_report::Args),
     /// Merge shard result stores into one.
+    #[command(allow_negative_numbers = true)]
     Merge(cmd_merge::Args),
     /// Write (and optionally submit) a Slurm job-array script for a sweep.
+    #[command(allow_negative_numbers = true)]
     Slurm(cmd_slurm::Args),
     /// Serve a live viewer of a scenario on 127.0.0.1.
+    #[command(allow_negative_numbers = true)]
     Serve(cmd_serve::Args),
     /// Render a run to an animated GIF or an MP4 video.
+    #[command(allow_negative_numbers = true)]
     Record(cmd_record::Args),
     /// Print the JSON Schema of scenario or sweep files (for editors), or the scenario reference.
     Schema(schema::Args),
@@ -96,6 +108,57 @@ pub(crate) fn check_duration(d: Option<f32>) -> Result<(), CliError> {
         Some(d) if !(d > 0.0 && d <= max) => Err(CliError::Input(format!(
             "--duration: expected more than 0 and at most {} seconds, got {d}",
             formica::limits::show(max)
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// An error if writing `out` would overwrite `input` (the same file, through any path or
+/// link, or its SQLite companions `-wal`, `-shm`, `-journal`), which the command reads as
+/// `what`.
+pub(crate) fn refuse_overwriting(
+    out: &std::path::Path,
+    input: &std::path::Path,
+    what: &str,
+) -> Result<(), CliError> {
+    // The output may not exist yet (an SQLite companion comes and goes): resolve its folder.
+    let resolve = |p: &std::path::Path| {
+        p.canonicalize().ok().or_else(|| {
+            let dir = match p.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d,
+                _ => std::path::Path::new("."),
+            };
+            Some(dir.canonicalize().ok()?.join(p.file_name()?))
+        })
+    };
+    let (Some(out_c), Ok(in_c)) = (resolve(out), input.canonicalize()) else {
+        return Ok(());
+    };
+    let same = out_c == in_c
+        || ["-wal", "-shm", "-journal"].iter().any(|suffix| {
+            let mut companion = in_c.clone().into_os_string();
+            companion.push(suffix);
+            out_c == std::path::Path::new(&companion)
+        });
+    if same {
+        return Err(CliError::Input(format!(
+            "{}: this is the {what} the command reads ({}); writing it would destroy it, so \
+             give another output file",
+            out.display(),
+            input.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Most worker threads `run` and `sweep` start.
+pub(crate) const MAX_THREADS: usize = 1024;
+
+/// `--threads`: 1 to [`MAX_THREADS`].
+pub(crate) fn check_threads(t: Option<usize>) -> Result<(), CliError> {
+    match t {
+        Some(t) if !(1..=MAX_THREADS).contains(&t) => Err(CliError::Input(format!(
+            "--threads: expected 1 to {MAX_THREADS}, got {t} (leave it out to use every core)"
         ))),
         _ => Ok(()),
     }

@@ -138,8 +138,17 @@ fn json_of_sql(v: SqlValue) -> Option<serde_json::Value> {
     }
 }
 
+/// The names of the tables in an SQLite file, in name order.
+fn table_names(conn: &Connection) -> rusqlite::Result<Vec<String>> {
+    let mut st =
+        conn.prepare("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name")?;
+    let names = st.query_map([], |r| r.get(0))?.collect();
+    names
+}
+
 impl Store {
-    /// Opens (creating if needed) a store.
+    /// Opens (creating if needed) a store. An SQLite file with tables but no `trials` table
+    /// (another program's) is refused untouched.
     pub fn open(path: &Path) -> Result<Store, CliError> {
         if let Some(dir) = path.parent() {
             if !dir.as_os_str().is_empty() {
@@ -150,6 +159,32 @@ impl Store {
         let conn = Connection::open(path).with_context(|| format!("opening {}", path.display()))?;
         conn.busy_timeout(std::time::Duration::from_secs(30))
             .context("setting the busy timeout")?;
+        // Another program's SQLite file gets no tables of ours: refuse it before writing.
+        let tables = match table_names(&conn) {
+            Ok(t) => t,
+            Err(e) if e.sqlite_error_code() == Some(rusqlite::ErrorCode::NotADatabase) => {
+                return Err(CliError::Input(format!(
+                    "{}: not a result store (not an SQLite file)",
+                    path.display()
+                )));
+            }
+            Err(e) => {
+                return Err(anyhow::Error::new(e)
+                    .context(format!("{}: reading its tables", path.display()))
+                    .into())
+            }
+        };
+        if !tables.is_empty() && !tables.iter().any(|t| t == "trials") {
+            return Err(CliError::Input(format!(
+                "{}: an SQLite file but not a Formica result store (it has {} and no `trials` \
+                 table); give a new file or a store that formica sweep wrote",
+                path.display(),
+                match tables.len() {
+                    1 => format!("the table `{}`", tables[0]),
+                    n => format!("{n} tables, `{}` first", tables[0]),
+                }
+            )));
+        }
         // WAL: a committed trial survives the process being killed at any moment.
         // The first statement reads the file: a file that is not SQLite fails here.
         if let Err(e) = conn.pragma_update(None, "journal_mode", "WAL") {
@@ -193,11 +228,18 @@ impl Store {
         Ok(store)
     }
 
-    /// Opens an existing store (for reading); a missing file is an input error.
+    /// Opens an existing store (for reading); a missing file, an empty one, or an SQLite file
+    /// without the store's tables is an input error (and is left as it was).
     pub fn open_existing(path: &Path) -> Result<Store, CliError> {
         if !path.is_file() {
             return Err(CliError::Input(format!(
                 "{}: no such result store",
+                path.display()
+            )));
+        }
+        if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
+            return Err(CliError::Input(format!(
+                "{}: an empty file, not a result store (formica sweep writes one)",
                 path.display()
             )));
         }

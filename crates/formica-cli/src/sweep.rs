@@ -199,7 +199,7 @@ fn mention(text: &str, k: &str) -> Option<usize> {
 }
 
 fn parse_seeds(s: &toml::Value) -> Result<Vec<u64>, String> {
-    let expected = "seeds: expected \"A..B\" (inclusive, A <= B) or a list of seeds";
+    let expected = "`seeds`: expected \"A..B\" (inclusive, A <= B) or a list of seeds";
     match s {
         toml::Value::Array(items) if !items.is_empty() => {
             let l: Vec<u64> = items
@@ -212,14 +212,14 @@ fn parse_seeds(s: &toml::Value) -> Result<Vec<u64>, String> {
             let mut seen = std::collections::BTreeSet::new();
             for x in &l {
                 if !seen.insert(*x) {
-                    return Err(format!("seeds: seed {x} is listed twice"));
+                    return Err(format!("`seeds`: seed {x} is listed twice"));
                 }
             }
             Ok(l)
         }
         toml::Value::String(r) => crate::cmd_run::seed_range(r)
             .map(|s| s.collect())
-            .map_err(|m| format!("seeds: {m} (or a list of seeds)")),
+            .map_err(|m| format!("`seeds`: {m} (or a list of seeds)")),
         other => Err(format!("{expected}, found {other}")),
     }
 }
@@ -262,12 +262,32 @@ impl Sweep {
             .collect();
         fixed.sort_by(|a, b| a.0.cmp(&b.0));
         if let Some(d) = spec.duration_s {
-            if !(d > 0.0 && d.is_finite()) {
+            let max = formica::limits::MAX_DURATION_S as f64;
+            if !(d > 0.0 && d <= max) {
                 return Err(input(format!(
-                    "`duration_s`: expected a positive number of seconds, got {d}"
+                    "`duration_s`: expected more than 0 and at most {} seconds, got {d}",
+                    formica::limits::show(max as f32)
                 )));
             }
+            if fixed.iter().any(|(k, _)| k == "run.duration_s") {
+                return Err(input(
+                    "`duration_s` and [set] \"run.duration_s\" both give the duration: keep one"
+                        .to_string(),
+                ));
+            }
             fixed.push(("run.duration_s".into(), toml::Value::Float(d)));
+        }
+        // Each trial's seed is the sweep's: a seed set, varied or given by a case would be
+        // overridden by it, and two "parameter sets" would run the same trials.
+        let sets_seed = fixed.iter().any(|(k, _)| k == "run.seed")
+            || vary.iter().any(|(k, _)| k == "run.seed")
+            || cases.iter().any(|c| c.contains_key("run.seed"));
+        if sets_seed {
+            return Err(input(
+                "`run.seed`: the sweep's `seeds` gives every trial its seed; list the seeds \
+                 there instead"
+                    .to_string(),
+            ));
         }
         for (k, _) in &vary {
             if NOT_OVERRIDES.contains(&k.as_str()) {
@@ -285,7 +305,15 @@ impl Sweep {
             let mut combos: Vec<Params> =
                 vec![case.iter().map(|(k, v)| (k.clone(), v.clone())).collect()];
             for (k, values) in &vary {
-                let n = (grid.len() + combos.len() * values.len()) as u64;
+                let n = (grid.len() as u64)
+                    .saturating_add((combos.len() as u64).saturating_mul(values.len() as u64));
+                if n > formica::limits::MAX_SETS {
+                    return Err(input(format!(
+                        "`{k}`: the grid has more than {} parameter sets; split the sweep (or \
+                         vary fewer values at once)",
+                        formica::limits::MAX_SETS
+                    )));
+                }
                 if n.saturating_mul(seeds.len() as u64) > formica::limits::MAX_TRIALS {
                     return Err(input(format!(
                         "`{k}`: the grid has more than {} trials (parameter sets times seeds); \
@@ -304,6 +332,12 @@ impl Sweep {
                 combos = next;
             }
             grid.extend(combos);
+            if grid.len() as u64 > formica::limits::MAX_SETS {
+                return Err(input(format!(
+                    "the grid has more than {} parameter sets; split the sweep",
+                    formica::limits::MAX_SETS
+                )));
+            }
         }
         if (grid.len() as u64).saturating_mul(seeds.len() as u64) > formica::limits::MAX_TRIALS {
             return Err(input(format!(

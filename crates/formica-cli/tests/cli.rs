@@ -367,6 +367,50 @@ fn set_values_that_are_not_toml_are_refused_not_taken_for_strings() {
 }
 
 #[test]
+fn numeric_options_out_of_range_get_their_own_message() {
+    let scenario = repo("scenarios/seed-transport.toml");
+    for (args, says) in [
+        (
+            vec!["run", "S", "--duration", "-1"],
+            "--duration: expected more than 0",
+        ),
+        (
+            vec!["run", "S", "--seeds", "-1..3"],
+            "--seeds: expected A..B",
+        ),
+        (vec!["run", "S", "--seeds", "1..2000000"], "at most 1000000"),
+        (
+            vec!["run", "S", "--threads", "100000"],
+            "--threads: expected 1 to 1024",
+        ),
+        (
+            vec!["run", "S", "--threads", "0"],
+            "--threads: expected 1 to 1024",
+        ),
+        (
+            vec!["bench", "--robots", "20001"],
+            "holds at most 20000 robots",
+        ),
+    ] {
+        let args: Vec<std::ffi::OsString> = args
+            .iter()
+            .map(|a| {
+                if *a == "S" {
+                    scenario.clone().into()
+                } else {
+                    (*a).into()
+                }
+            })
+            .collect();
+        let out = formica().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!err.contains("tip: to pass"), "{args:?}: {err}");
+    }
+}
+
+#[test]
 fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
     let scenario = repo("scenarios/seed-transport.toml");
     let warned = |sets: &[&str], says: &str| {
@@ -773,7 +817,11 @@ fn seed_range_too_large_is_refused() {
     std::fs::create_dir_all(&dir).unwrap();
     let base = std::fs::canonicalize(&sc).unwrap();
     for (seeds, vary, msg) in [
-        ("\"0..18446744073709551615\"", "", "seeds: expected A..B"),
+        (
+            "\"0..18446744073709551615\"",
+            "",
+            "s.toml:2:1: `seeds`: expected A..B",
+        ),
         (
             "\"1..5000000\"",
             "\"robots.0.count\" = [1, 2, 3]\n",

@@ -564,6 +564,188 @@ fn a_file_that_is_not_a_store_is_named_and_refused_with_code_2() {
 }
 
 #[test]
+fn a_sweep_that_sets_the_seed_or_the_duration_twice_is_refused_at_the_line() {
+    let dir = tmp("conflicts");
+    let base = repo("scenarios/seed-transport.toml")
+        .display()
+        .to_string()
+        .replace('\\', "/");
+    for (body, line, says) in [
+        (
+            "seeds = \"1..2\"\n[vary]\n\"run.seed\" = [5, 6]\n",
+            4,
+            "`run.seed`: the sweep's `seeds` gives every trial its seed",
+        ),
+        (
+            "seeds = \"1..2\"\nduration_s = 1200\n[set]\n\"run.duration_s\" = 60\n",
+            3,
+            "both give the duration",
+        ),
+        ("seeds = [1, 2, -3]\n", 2, "`seeds`: expected"),
+        (
+            "seeds = \"1..2\"\nduration_s = 2000000\n",
+            3,
+            "at most 1e6 seconds",
+        ),
+    ] {
+        let file = dir.join("c.toml");
+        std::fs::write(&file, format!("scenario = \"{base}\"\n{body}")).unwrap();
+        let out = sweep(&file, &dir.join("c.db"), &["--dry-run"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{body}: {err}");
+        assert!(err.contains(&format!("c.toml:{line}:")), "{body}: {err}");
+        assert!(err.contains(says), "{body}: {err}");
+    }
+}
+
+#[test]
+fn another_programs_sqlite_file_and_an_empty_file_are_refused_untouched() {
+    // Read-only commands used to create the store's tables in any SQLite file they were
+    // given (and switch it to WAL), then report "0 trials".
+    let dir = tmp("foreign-sqlite");
+    let file = write_sweep(&dir, "1..2");
+    let other = dir.join("other.db");
+    {
+        let c = rusqlite::Connection::open(&other).unwrap();
+        c.execute_batch("CREATE TABLE mydata (a, b); INSERT INTO mydata VALUES (1, 2);")
+            .unwrap();
+    }
+    let before = std::fs::read(&other).unwrap();
+    let empty = dir.join("empty.db");
+    std::fs::write(&empty, "").unwrap();
+    for (target, says) in [
+        (
+            &other,
+            "not a Formica result store (it has the table `mydata`",
+        ),
+        (&empty, "an empty file, not a result store"),
+    ] {
+        let mut runs: Vec<Vec<std::ffi::OsString>> = vec![
+            vec![
+                "report".into(),
+                target.into(),
+                "--out".into(),
+                dir.join("r").into(),
+            ],
+            vec![
+                "export".into(),
+                target.into(),
+                "--csv".into(),
+                dir.join("e.csv").into(),
+            ],
+            vec![
+                "run".into(),
+                "--db".into(),
+                target.into(),
+                "--trial".into(),
+                "0".into(),
+            ],
+            vec!["merge".into(), dir.join("m.db").into(), target.into()],
+        ];
+        if target == &other {
+            runs.push(vec![
+                "sweep".into(),
+                file.clone().into(),
+                "--db".into(),
+                target.into(),
+            ]);
+        }
+        for args in runs {
+            let out = formica().args(&args).output().unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+            assert!(err.contains(says), "{args:?}: {err}");
+        }
+    }
+    assert_eq!(std::fs::read(&other).unwrap(), before);
+    assert_eq!(std::fs::read(&empty).unwrap(), b"");
+}
+
+#[test]
+fn outputs_never_overwrite_the_store_or_sweep_file_being_read() {
+    let dir = tmp("no-overwrite");
+    let file = write_sweep(&dir, "1..1");
+    let db = dir.join("s.db");
+    ok(sweep(&file, &db, &["--limit", "1"]));
+    let (store, sweep_text) = (std::fs::read(&db).unwrap(), std::fs::read(&file).unwrap());
+    let sub = dir.join("sub").join("..").join("s.db");
+    let refused: [Vec<std::ffi::OsString>; 6] = [
+        vec![
+            "export".into(),
+            db.clone().into(),
+            "--csv".into(),
+            db.clone().into(),
+        ],
+        vec![
+            "export".into(),
+            db.clone().into(),
+            "--csv".into(),
+            sub.into(),
+        ],
+        vec![
+            "export".into(),
+            db.clone().into(),
+            "--csv".into(),
+            "-".into(),
+            "--trajectories".into(),
+            dir.join("s.db-wal").into(),
+        ],
+        vec![
+            "slurm".into(),
+            file.clone().into(),
+            "--array".into(),
+            "2".into(),
+            "--script".into(),
+            file.clone().into(),
+        ],
+        // More tasks than trials, and a time Slurm would not take.
+        vec![
+            "slurm".into(),
+            file.clone().into(),
+            "--array".into(),
+            "100000".into(),
+        ],
+        vec![
+            "slurm".into(),
+            file.clone().into(),
+            "--array".into(),
+            "2".into(),
+            "--time".into(),
+            "4h".into(),
+        ],
+    ];
+    for args in refused {
+        let out = formica().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read(&db).unwrap(), store);
+    assert_eq!(std::fs::read(&file).unwrap(), sweep_text);
+    // A script of its own it rewrites; any other file it leaves alone.
+    let script = dir.join("job.slurm");
+    for _ in 0..2 {
+        ok(formica()
+            .arg("slurm")
+            .arg(&file)
+            .args(["--array", "2", "--time", "1-12:00", "--script"])
+            .arg(&script)
+            .output()
+            .unwrap());
+    }
+    let notes = dir.join("notes.txt");
+    std::fs::write(&notes, "mine\n").unwrap();
+    let out = formica()
+        .arg("slurm")
+        .arg(&file)
+        .args(["--array", "2", "--script"])
+        .arg(&notes)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(std::fs::read_to_string(&notes).unwrap(), "mine\n");
+}
+
+#[test]
 fn slurm_writes_a_job_array_over_the_shards() {
     let dir = tmp("slurm");
     let file = write_sweep(&dir, "1..2");

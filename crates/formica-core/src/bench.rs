@@ -72,6 +72,17 @@ impl Workload {
         }
     }
 
+    /// Most robots a world of this workload can hold: a scenario's limits on robots
+    /// ([`crate::limits::MAX_ROBOTS`]) and objects ([`crate::limits::MAX_ITEMS`], one a tile).
+    pub fn max_robots(self) -> usize {
+        match self {
+            Workload::Transport | Workload::FillTransport => {
+                (self.robots_per_tile() * crate::limits::MAX_ITEMS).min(crate::limits::MAX_ROBOTS)
+            }
+            Workload::RandomWalk => crate::limits::MAX_ROBOTS,
+        }
+    }
+
     /// The benchmark world for `robots` robots.
     pub fn scenario(self, robots: usize) -> Result<Scenario, ScenarioError> {
         match self {

@@ -14,7 +14,7 @@
 //! | `GET /api/state[?rays=1][&zones=1]` | time, outcome, object, path, robots (JSON); for a replay, whether it ended as stored |
 //! | `GET /api/series` | goal distance, object speed and robots per state over time (JSON) |
 //! | `GET /api/robot?i=N` | robot N's readings, controller state, wheels and state history (JSON) |
-//! | `POST /api/play`, `/api/pause`, `/api/step[?n=N]`, `/api/speed?x=F`, `/api/restart[?seed=N]` | control; answer with the state |
+//! | `POST /api/play`, `/api/pause`, `/api/step[?n=N]`, `/api/speed?x=F`, `/api/restart[?seed=N]` | control; answer with the state (a step runs `n` ticks, or as many as 5 s of computing allow) |
 //! | `GET /api/stats` | request counters and buffer sizes of the server itself |
 //!
 //! Nothing else is served: there is no file system behind the routes, so `..` or any other
@@ -150,6 +150,10 @@ enum Cmd {
 
 /// How long a connection waits for the simulation thread's answer.
 const SIM_WAIT: Duration = Duration::from_secs(30);
+
+/// Most wall time one `/api/step?n=N` computes: it runs `n` ticks or as many as fit (at least
+/// one), well within what a request waits ([`SIM_WAIT`]), so the server keeps answering.
+const STEP_BUDGET: Duration = Duration::from_secs(5);
 /// Stack of a connection thread (it parses and writes; the simulation thread builds answers).
 const CONN_STACK: usize = 256 * 1024;
 
@@ -424,7 +428,7 @@ fn control(sim: &mut Sim, c: Control) -> Result<(), Response> {
         Control::Pause => sim.set_playing(false),
         Control::Step(n) => {
             sim.set_playing(false);
-            sim.step(n);
+            sim.step_within(n, Some(STEP_BUDGET));
         }
         Control::Speed(x) => sim
             .set_speed(x)

@@ -352,8 +352,19 @@ impl Sim {
 
     /// Advances up to `n` ticks (fewer if the run ends); returns how many ran.
     pub fn step(&mut self, n: u64) -> u64 {
+        self.step_within(n, None)
+    }
+
+    /// As [`Sim::step`], but stops once `budget` of wall time has gone (after the tick that
+    /// passes it), so that a large step of a large swarm does not hold the simulation thread
+    /// past what a client waits for.
+    pub fn step_within(&mut self, n: u64, budget: Option<std::time::Duration>) -> u64 {
+        let t0 = std::time::Instant::now();
         let mut done = 0;
-        while done < n && self.run.outcome().is_none() {
+        while done < n
+            && self.run.outcome().is_none()
+            && budget.is_none_or(|b| done == 0 || t0.elapsed() < b)
+        {
             let ended = self.run.step().is_some();
             let w = &self.run.world;
             if let Some(t) = w.target {

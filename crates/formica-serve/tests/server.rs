@@ -642,3 +642,15 @@ fn a_replay_is_checked_against_its_stored_result() {
         assert_eq!(s["replay"]["active"], false);
     }
 }
+
+#[test]
+fn a_step_stops_at_its_time_budget_and_runs_at_least_one_tick() {
+    // What keeps `/api/step?n=10000` of a 100,000-robot world from holding the server for
+    // half an hour: the step ends when its budget is spent.
+    let mut sim = formica_serve::Sim::new(small(), None, None).expect("the small world builds");
+    assert_eq!(sim.step_within(10_000, Some(Duration::ZERO)), 1);
+    assert_eq!(sim.tick(), 1);
+    assert_eq!(sim.step_within(7, Some(Duration::from_secs(600))), 7);
+    assert_eq!(sim.step(3), 3);
+    assert_eq!(sim.tick(), 11);
+}
