@@ -20,12 +20,7 @@ pub struct Args {
 
 /// Loads the scenario, builds its world (placing robots with the file's seed) and describes it.
 pub fn main(a: Args) -> Result<(), CliError> {
-    let sc = crate::cmd_run::load(&a.scenario, &a.set).map_err(|e| {
-        match sweep_file_hint(&a.scenario) {
-            Some(hint) => CliError::Input(hint),
-            None => e,
-        }
-    })?;
+    let sc = crate::cmd_run::load(&a.scenario, &a.set)?;
     let run = Run::new(&sc, &RunOptions::default())?;
     let w = &run.world;
     let s = &sc.spec;
@@ -157,23 +152,6 @@ pub fn main(a: Args) -> Result<(), CliError> {
         }
     }
     Ok(())
-}
-
-/// For a file that is not a scenario but a sweep file (no `arena`, and `seeds`, `vary` or
-/// `cases` at the top): an error that says so and names the command that checks it.
-fn sweep_file_hint(path: &std::path::Path) -> Option<String> {
-    let text = std::fs::read_to_string(path).ok()?;
-    let table: toml::Table = toml::from_str(&text).ok()?;
-    let sweep = ["seeds", "vary", "cases"]
-        .iter()
-        .any(|k| table.contains_key(*k));
-    (sweep && !table.contains_key("arena")).then(|| {
-        let file = path.display();
-        format!(
-            "{file}: a sweep file (it sets seeds, vary or cases), not a scenario; check it \
-             with `formica sweep {file} --dry-run`"
-        )
-    })
 }
 
 /// For an `occlusion` group with beacon perception: a warning if the `object_reach` it sets is

@@ -155,8 +155,16 @@ fn is_bare_word(v: &str) -> bool {
             .all(|c| c.is_alphanumeric() || matches!(c, '-' | '_' | '.' | '/' | ':'))
 }
 
-/// Loads the scenario with the `--set` overrides applied.
+/// Loads the scenario with the `--set` overrides applied. A sweep file or a result store
+/// given instead gets an error that says so and names the command that takes it.
 pub fn load(path: &std::path::Path, set: &[String]) -> Result<Scenario, CliError> {
+    load_scenario(path, set).map_err(|e| match crate::not_a_scenario_hint(path) {
+        Some(hint) => CliError::Input(hint),
+        None => e,
+    })
+}
+
+fn load_scenario(path: &std::path::Path, set: &[String]) -> Result<Scenario, CliError> {
     if set.is_empty() {
         return Ok(Scenario::load(path)?);
     }
@@ -211,6 +219,12 @@ fn describe(r: &RunResult) -> String {
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
     crate::check_threads(a.threads)?;
+    if let Some(dir) = a.out.as_deref().filter(|d| d.is_file()) {
+        return Err(CliError::Input(format!(
+            "--out {}: a file, not a folder (the run writes its CSV files and picture into a folder)",
+            dir.display()
+        )));
+    }
     if let Some(db) = &a.db {
         return replay_trials(&a, db);
     }

@@ -3,7 +3,6 @@
 
 use crate::replay::{self, Replayer};
 use crate::CliError;
-use formica::Scenario;
 use formica_serve::{ReplayInfo, ServeError, ServeOptions, Server};
 use std::net::IpAddr;
 use std::path::PathBuf;
@@ -63,7 +62,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             (r.scenario, Some(r.seed), Some(info), label)
         }
         (_, _, Some(path)) => (
-            Scenario::load(path)?,
+            crate::cmd_run::load(path, &[])?,
             a.seed,
             None,
             path.display().to_string(),

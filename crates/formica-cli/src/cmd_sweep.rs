@@ -320,7 +320,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let total = store.count()?;
     let scored = n - unjudged;
     let [lo, hi] = stats::wilson95(ok, scored);
+    let missing = mine.len() - skipped;
     let outcome = match (scored, unjudged) {
+        (0, 0) if missing > 0 => {
+            format!("--limit {}: {missing} still to run", a.limit.unwrap_or(0))
+        }
         (0, 0) => "none to run".to_string(),
         (0, _) => "none has a success rule: static filling, judged by its metrics".to_string(),
         (_, u) => format!(
@@ -340,11 +344,26 @@ pub fn main(a: Args) -> Result<(), CliError> {
             }
         ),
     };
+    // Trials of an earlier grid that this one no longer has stay in the store (numbered after
+    // the grid): say so rather than "holds 16 of 8".
+    let in_grid = all
+        .iter()
+        .filter(|t| done.contains(&(sweep.sets[t.set].key.clone(), t.seed)))
+        .count()
+        + n;
+    let held = if total > in_grid {
+        format!(
+            "{in_grid} of the grid's {} trials, and {} of an earlier grid",
+            all.len(),
+            total - in_grid
+        )
+    } else {
+        format!("{total} of {} trials", all.len())
+    };
     outln!(
-        "{}: ran {n} trials ({outcome}), skipped {skipped} already stored; {} holds {total} of {} trials",
+        "{}: ran {n} trials ({outcome}), skipped {skipped} already stored; {} holds {held}",
         sweep.name,
         db.display(),
-        all.len()
     );
     Ok(())
 }

@@ -151,6 +151,59 @@ pub(crate) fn refuse_overwriting(
     Ok(())
 }
 
+/// What a file given to a command looks like, for an error that says what was given and
+/// which command takes it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum FileKind {
+    /// A TOML file with an `arena` table and no `scenario` key.
+    Scenario,
+    /// A TOML file with `scenario`, `seeds`, `vary` or `cases` and no `arena`.
+    Sweep,
+    /// An SQLite file (a result store, or another program's).
+    Sqlite,
+}
+
+/// The kind of file at `path`, if it is one of [`FileKind`]'s (read at most 64 MiB, as a
+/// scenario or sweep file may be).
+pub(crate) fn file_kind(path: &std::path::Path) -> Option<FileKind> {
+    use std::io::Read;
+    let mut head = [0u8; 16];
+    let mut f = std::fs::File::open(path).ok()?;
+    if f.read_exact(&mut head).is_ok() && &head == b"SQLite format 3\0" {
+        return Some(FileKind::Sqlite);
+    }
+    if std::fs::metadata(path).ok()?.len() > 64 << 20 {
+        return None;
+    }
+    let table: toml::Table = toml::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
+    let arena = table.contains_key("arena");
+    let sweep = ["scenario", "seeds", "vary", "cases"]
+        .iter()
+        .any(|k| table.contains_key(*k));
+    match (arena, sweep) {
+        (true, false) => Some(FileKind::Scenario),
+        (false, true) => Some(FileKind::Sweep),
+        _ => None,
+    }
+}
+
+/// For an error loading `path` as a scenario: what the file is instead, and the command that
+/// takes it (`None` if it is not a sweep file or a store).
+pub(crate) fn not_a_scenario_hint(path: &std::path::Path) -> Option<String> {
+    let file = path.display();
+    match file_kind(path)? {
+        FileKind::Sweep => Some(format!(
+            "{file}: a sweep file (it sets seeds, vary or cases), not a scenario; run it with \
+             `formica sweep {file}` (check it with `--dry-run`)"
+        )),
+        FileKind::Sqlite => Some(format!(
+            "{file}: an SQLite file (a result store?), not a scenario; replay a trial of a store \
+             with `formica run --db {file} --trial N`"
+        )),
+        FileKind::Scenario => None,
+    }
+}
+
 /// Most worker threads `run` and `sweep` start.
 pub(crate) const MAX_THREADS: usize = 1024;
 

@@ -572,6 +572,13 @@ pub(crate) fn main(a: Args) -> Result<(), crate::CliError> {
         return Ok(());
     }
     if a.markdown {
+        if matches!(a.which, Which::Sweep) {
+            return Err(crate::CliError::Input(
+                "--markdown prints the scenario reference; sweep files are described in \
+                 docs/src/experiments.md (`formica schema sweep` prints their JSON Schema)"
+                    .into(),
+            ));
+        }
         outln!("{}", reference_markdown().trim_end());
         return Ok(());
     }

@@ -231,6 +231,12 @@ impl Sweep {
         let text = std::fs::read_to_string(path)
             .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
         let spec: SweepSpec = toml::from_str(&text).map_err(|e| {
+            if crate::file_kind(path) == Some(crate::FileKind::Scenario) {
+                return CliError::Input(format!(
+                    "{file}: a scenario file (it has an arena), not a sweep file; run it with \
+                     `formica run {file}`, or write a sweep file whose `scenario` names it"
+                ));
+            }
             let (line, col) = line_col(&text, e.span().map_or(0, |s| s.start));
             CliError::Input(format!("{file}:{line}:{col}: {}", e.message().trim()))
         })?;
@@ -250,6 +256,18 @@ impl Sweep {
         flatten_vary("", &spec.vary, &mut vary).map_err(input)?;
         // The grid's order: keys sorted (whatever order the TOML map keeps), values as listed.
         vary.sort_by(|a, b| a.0.cmp(&b.0));
+        for case in &spec.cases {
+            match case.get("label") {
+                None => {}
+                Some(toml::Value::String(l))
+                    if !l.trim().is_empty() && !l.chars().any(char::is_control) => {}
+                Some(other) => {
+                    return Err(input(format!(
+                        "`label`: expected a one-line text naming the case in reports, got {other}"
+                    )))
+                }
+            }
+        }
         let mut cases = spec.cases.clone();
         if cases.is_empty() {
             cases.push(toml::Table::new());

@@ -627,6 +627,72 @@ fn check_warns_when_the_camera_goal_has_no_goal_colour() {
 }
 
 #[test]
+fn a_file_of_the_wrong_kind_is_named_with_the_command_that_takes_it() {
+    let dir = tmp("wrong-kind");
+    std::fs::create_dir_all(&dir).unwrap();
+    let store = dir.join("study.db");
+    std::fs::write(&store, b"SQLite format 3\0 and then pages").unwrap();
+    let sweep = repo("experiments/smoke.toml");
+    let scenario = repo("scenarios/seed-transport.toml");
+    let afile = dir.join("afile");
+    std::fs::write(&afile, "").unwrap();
+    for (args, says) in [
+        (
+            vec!["run".into(), sweep.clone().into_os_string()],
+            "a sweep file",
+        ),
+        (
+            vec![
+                "record".into(),
+                sweep.into(),
+                "--out".into(),
+                dir.join("x.gif").into(),
+            ],
+            "a sweep file",
+        ),
+        (
+            vec!["run".into(), store.clone().into_os_string()],
+            "formica run --db",
+        ),
+        (vec!["serve".into(), store.into()], "formica run --db"),
+        (
+            vec!["sweep".into(), scenario.clone().into(), "--dry-run".into()],
+            "a scenario file",
+        ),
+        (
+            vec!["run".into(), scenario.into(), "--out".into(), afile.into()],
+            "a file, not a folder",
+        ),
+    ] {
+        let args: Vec<std::ffi::OsString> = args;
+        let out = formica().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    // `[set.robots.0]` in a sweep file: the error says how to write it.
+    let bad = dir.join("table.toml");
+    std::fs::write(
+        &bad,
+        format!(
+            "scenario = {:?}\nseeds = \"1..2\"\n[set.robots.0]\ncount = 3\n",
+            repo("scenarios/seed-transport.toml")
+                .display()
+                .to_string()
+                .replace('\\', "/")
+        ),
+    )
+    .unwrap();
+    let out = formica()
+        .args(["sweep", "--dry-run"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("\"robots.0.count\" = 3"), "{err}");
+}
+
+#[test]
 fn check_on_a_sweep_file_points_to_sweep_dry_run() {
     let out = formica()
         .arg("check")

@@ -372,7 +372,7 @@ fn trials_a_changed_grid_no_longer_has_keep_their_rows_under_numbers_of_their_ow
     drop_count_12(&file);
     let out = sweep(&file, &db, &[]);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    ok(out);
+    let said = String::from_utf8_lossy(&ok(out).stdout).into_owned();
     let numbers = trial_numbers(&db);
     let mut unique = numbers.clone();
     unique.dedup();
@@ -386,6 +386,12 @@ fn trials_a_changed_grid_no_longer_has_keep_their_rows_under_numbers_of_their_ow
             "{dropped} stored trial(s) belong to parameter sets or seeds this sweep file no longer has"
         )),
         "{err}"
+    );
+    assert!(
+        said.contains(&format!(
+            "holds 8 of the grid's 8 trials, and {dropped} of an earlier grid"
+        )),
+        "{said}"
     );
 }
 

@@ -1131,10 +1131,14 @@ impl Scenario {
             set_path(&mut partial, key, value.clone())
                 .map_err(|m| at(key, format!("`{key}`: {m}")))?;
             if let Err(e) = parse(&write(&partial)?) {
-                return Err(at(
-                    key,
-                    format!("`{key}` = {value}: {file} rejects it: {}", message_of(&e)),
-                ));
+                let mut m = format!("`{key}` = {value}: {file} rejects it: {}", message_of(&e));
+                // `[set.robots.0]` in a sweep file makes a table keyed "0" where the scenario
+                // has a list.
+                if value.is_table() && m.contains("expected a sequence") {
+                    m += " (a list element goes by its index in a quoted dotted key, \
+                          \"robots.0.count\" = 3, not by a table such as [set.robots.0])";
+                }
+                return Err(at(key, m));
             }
         }
         Err(full)

@@ -645,9 +645,21 @@ fn api_post(shared: &Shared, req: &Request) -> Result<Response, Response> {
         }
         _ => Control::Restart(match param(req, "seed") {
             None | Some("") => None,
-            Some(v) => Some(v.parse::<u64>().map_err(|_| {
-                Response::error(400, &format!("seed: expected a whole number, got `{v}`"))
-            })?),
+            Some(v) => Some(
+                v.parse::<u64>()
+                    .ok()
+                    .filter(|s| *s <= formica::limits::MAX_SEED)
+                    .ok_or_else(|| {
+                        Response::error(
+                            400,
+                            &format!(
+                                "seed: expected a whole number from 0 to {} (as `formica run \
+                                 --seed` takes), got `{v}`",
+                                formica::limits::MAX_SEED
+                            ),
+                        )
+                    })?,
+            ),
         }),
     };
     let body = ask(shared, |tx| Cmd::Control(c, q, tx))??;

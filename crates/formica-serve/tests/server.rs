@@ -252,6 +252,7 @@ fn bad_requests_get_errors_never_a_crash() {
         ("POST", "/api/speed?x=1e9", 400),
         ("POST", "/api/restart?seed=-1", 400),
         ("POST", "/api/restart?seed=abc", 400),
+        ("POST", "/api/restart?seed=18446744073709551615", 400),
     ] {
         let (code, body) = req(a, method, target);
         assert_eq!(code, want, "{method} {target}: {body}");
