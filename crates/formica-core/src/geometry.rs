@@ -570,6 +570,18 @@ mod tests {
         assert!(wrap_angle(f32::INFINITY).is_nan());
     }
 
+    /// An L of two 0.5 x 0.2 m arms, its inner corner at (0.2, 0.2): area 0.16.
+    fn l_shape() -> Primitive {
+        Primitive::Polygon(vec![
+            [0.0, 0.0],
+            [0.5, 0.0],
+            [0.5, 0.2],
+            [0.2, 0.2],
+            [0.2, 0.5],
+            [0.0, 0.5],
+        ])
+    }
+
     #[test]
     fn parts_that_touch_make_one_piece_and_parts_apart_make_two() {
         let part = |shape: Primitive, x: f32, y: f32| Part {
@@ -595,14 +607,7 @@ mod tests {
         assert_eq!(part_pieces(&near(0.002), 1e-3).len(), 2);
         assert_eq!(part_pieces(&near(0.0005), 1e-3).len(), 1);
         // A disc touching a concave polygon's inner corner.
-        let l = Primitive::Polygon(vec![
-            [0.0, 0.0],
-            [0.5, 0.0],
-            [0.5, 0.2],
-            [0.2, 0.2],
-            [0.2, 0.5],
-            [0.0, 0.5],
-        ]);
+        let l = l_shape();
         let r = 0.1;
         let corner = 0.2 + r / std::f32::consts::SQRT_2;
         let with_disc = [
@@ -624,14 +629,7 @@ mod tests {
     #[test]
     fn concave_polygon_decomposes_and_keeps_its_area() {
         // An L: area 0.5*0.2 + 0.2*0.5 = 0.2 minus the overlap 0.04 = 0.16.
-        let l = Primitive::Polygon(vec![
-            [0.0, 0.0],
-            [0.5, 0.0],
-            [0.5, 0.2],
-            [0.2, 0.2],
-            [0.2, 0.5],
-            [0.0, 0.5],
-        ]);
+        let l = l_shape();
         let shape = l.shared_shape().unwrap();
         let mp = shape.mass_properties(1.0);
         assert!((mp.mass() - 0.16).abs() < 1e-4, "area {}", mp.mass());
