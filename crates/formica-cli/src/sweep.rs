@@ -387,9 +387,10 @@ impl Sweep {
             texts.insert(rel.to_string(), (name.clone(), t.clone()));
             Ok((name, t))
         };
+        let per_case = grid.len() / cases.len().max(1);
         let mut sets = Vec::with_capacity(grid.len());
         let mut seen = std::collections::BTreeSet::new();
-        for params in grid {
+        for (index, params) in grid.into_iter().enumerate() {
             let base_rel = match params.get("scenario") {
                 Some(toml::Value::String(s)) => s.clone(),
                 Some(other) => {
@@ -414,9 +415,26 @@ impl Sweep {
                 Scenario::parse_with_overrides(&base_text, &base_name, &ov, (&file, &text))?;
             let key = params_json(&params);
             if !seen.insert(key.clone()) {
-                return Err(input(format!(
-                    "the parameter set {key} appears twice: every case must differ"
-                )));
+                let m = format!("the parameter set {key} appears twice: every case must differ");
+                // At the case that repeats an earlier one: its `[[cases]]` header.
+                let case = index / per_case.max(1);
+                let at = text
+                    .match_indices("[[cases]]")
+                    .filter(|(i, _)| {
+                        text[..*i]
+                            .rsplit('\n')
+                            .next()
+                            .is_some_and(|p| p.trim().is_empty())
+                    })
+                    .nth(case)
+                    .map(|(i, _)| i);
+                return Err(match at {
+                    Some(i) => {
+                        let (line, col) = line_col(&text, i);
+                        CliError::Input(format!("{file}:{line}:{col}: {m}"))
+                    }
+                    None => input(m),
+                });
             }
             sets.push(ParamSet {
                 params,

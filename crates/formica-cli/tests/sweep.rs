@@ -589,6 +589,11 @@ fn a_sweep_that_sets_the_seed_or_the_duration_twice_is_refused_at_the_line() {
         ),
         ("seeds = [1, 2, -3]\n", 2, "`seeds`: expected"),
         (
+            "seeds = \"1\"\n# [[cases]] in a comment\n[[cases]]\nlabel = \"a\"\n\n  [[cases]]\nlabel = \"a\"\n",
+            7,
+            "appears twice",
+        ),
+        (
             "seeds = \"1..2\"\nduration_s = 2000000\n",
             3,
             "at most 1e6 seconds",
