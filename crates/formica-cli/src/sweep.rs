@@ -307,7 +307,18 @@ impl Sweep {
                     .to_string(),
             ));
         }
-        for (k, _) in &vary {
+        for (k, values) in &vary {
+            if let Some((i, v)) = values
+                .iter()
+                .enumerate()
+                .find(|(i, v)| values[..*i].contains(v))
+            {
+                return Err(input(format!(
+                    "`{k}`: the value {v} is listed twice (item {} of the list); each value \
+                     makes parameter sets of its own",
+                    i + 1
+                )));
+            }
             if NOT_OVERRIDES.contains(&k.as_str()) {
                 continue;
             }

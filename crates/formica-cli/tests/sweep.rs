@@ -589,6 +589,11 @@ fn a_sweep_that_sets_the_seed_or_the_duration_twice_is_refused_at_the_line() {
         ),
         ("seeds = [1, 2, -3]\n", 2, "`seeds`: expected"),
         (
+            "seeds = \"1\"\n[vary]\n\"robots.0.count\" = [3, 5, 3]\n",
+            4,
+            "the value 3 is listed twice",
+        ),
+        (
             "seeds = \"1\"\n# [[cases]] in a comment\n[[cases]]\nlabel = \"a\"\n\n  [[cases]]\nlabel = \"a\"\n",
             7,
             "appears twice",
