@@ -225,6 +225,20 @@ def controllers() -> list:
     return _formica.controller_names()
 
 
+# The controllers Formica comes with (`external` included), as registered at import: a
+# Python controller may not take one's name, since every scenario and environment that uses
+# it would silently run the replacement.
+_BUILTIN_CONTROLLERS = frozenset(_formica.controller_names())
+
+
+def _check_name(name: str) -> None:
+    if name in _BUILTIN_CONTROLLERS:
+        raise ValueError(
+            f"{name!r} is a built-in controller; register yours under another name "
+            f"(built in: {', '.join(sorted(_BUILTIN_CONTROLLERS))})"
+        )
+
+
 def _needs(needs, obj) -> list:
     if needs is None:
         needs = getattr(obj, "needs", DEFAULT_NEEDS)
@@ -253,6 +267,7 @@ def register_controller(name: str, cls: Optional[type] = None, *, needs: Optiona
     """
     if cls is None:
         return functools.partial(register_controller, name, needs=needs)
+    _check_name(name)
     if not callable(getattr(cls, "step", None)):
         raise TypeError(f"{cls!r}: a controller class needs a step(readings) method")
     _formica.register_robot(name, cls, _needs(needs, cls))
@@ -290,6 +305,7 @@ def register_batched(name: str, fn: Optional[Callable] = None, *, needs: Optiona
     """
     if fn is None:
         return functools.partial(register_batched, name, needs=needs)
+    _check_name(name)
     if inspect.isclass(fn):
         step = getattr(fn, "step", None)
         if not callable(step):

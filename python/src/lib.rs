@@ -20,7 +20,7 @@ mod scenario;
 mod world;
 
 pyo3::create_exception!(
-    _formica,
+    formica._formica,
     ScenarioError,
     PyValueError,
     "A scenario file (or an override of it) that failed to load or validate. `str(e)` is \
@@ -30,7 +30,7 @@ pyo3::create_exception!(
 );
 
 pyo3::create_exception!(
-    _formica,
+    formica._formica,
     PanicError,
     PyRuntimeError,
     "A bug inside the simulator (a Rust panic), turned into an exception."

@@ -29,6 +29,9 @@ fn run_attached(
     Ok(run.result())
 }
 
+/// Most seeds of one `formica.run` call (as `formica run --seeds`).
+const MAX_RUN_SEEDS: usize = 1_000_000;
+
 /// Runs `scenario` once per seed and returns the results as dicts, in seed order: the JSON
 /// lines of `formica run --json`. `threads`: worker threads (default: every core, or 1 when
 /// Python controllers run, which then step on the calling thread).
@@ -53,6 +56,13 @@ pub fn run_seeds(
         if threads == Some(0) {
             return Err(PyValueError::new_err("threads: expected at least 1"));
         }
+        if seeds.len() > MAX_RUN_SEEDS {
+            return Err(PyValueError::new_err(format!(
+                "seeds: at most {MAX_RUN_SEEDS} seeds a call, got {} (as `formica run --seeds`; \
+                 formica.sweep stores each trial as it ends and takes more)",
+                seeds.len()
+            )));
+        }
         let Some(&first) = seeds.first() else {
             return Ok(Vec::new());
         };
@@ -69,14 +79,21 @@ pub fn run_seeds(
                 .num_threads(threads.unwrap_or(0))
                 .build()
                 .map_err(|e| PyRuntimeError::new_err(format!("starting worker threads: {e}")))?;
-            let out: Vec<Result<RunResult, formica::ScenarioError>> = py.detach(|| {
-                pool.install(|| {
-                    seeds
-                        .par_iter()
-                        .map(|&s| formica::run(&sc, &b.options(Some(s))).map(|(r, _)| r))
-                        .collect()
-                })
-            });
+            // Seeds in chunks, the GIL released for each, so that Ctrl-C stops the call
+            // between chunks.
+            let chunk = (8 * pool.current_num_threads()).max(64);
+            let mut out: Vec<Result<RunResult, formica::ScenarioError>> =
+                Vec::with_capacity(seeds.len());
+            for part in seeds.chunks(chunk) {
+                out.extend(py.detach(|| {
+                    pool.install(|| {
+                        part.par_iter()
+                            .map(|&s| formica::run(&sc, &b.options(Some(s))).map(|(r, _)| r))
+                            .collect::<Vec<_>>()
+                    })
+                }));
+                py.check_signals()?;
+            }
             out.into_iter()
                 .collect::<Result<_, _>>()
                 .map_err(|e| scenario_error(py, &e))?

@@ -63,6 +63,9 @@ fn color_code(c: Color) -> u8 {
         .map_or(u8::MAX, |i| i as u8)
 }
 
+/// Most worlds of one `Worlds`.
+const MAX_WORLDS: usize = 10_000;
+
 /// Outcome codes of `Worlds.step`: 0 still running, 1 success, 2 wall, 3 timeout.
 fn outcome_code(o: Option<Outcome>) -> i8 {
     match o {
@@ -84,9 +87,11 @@ pub(crate) struct Build {
 impl Build {
     pub(crate) fn check(&self, sc: &Scenario) -> PyResult<()> {
         if let Some(d) = self.duration {
-            if !(d > 0.0 && d.is_finite()) {
+            let max = formica::limits::MAX_DURATION_S;
+            if !(d > 0.0 && d <= max) {
                 return Err(PyValueError::new_err(format!(
-                    "duration: expected a positive number of seconds, got {d}"
+                    "duration: expected more than 0 and at most {} seconds, got {d}",
+                    formica::limits::show(max)
                 )));
             }
         }
@@ -637,6 +642,14 @@ impl PyWorld {
                         arr.as_array().shape()
                     )));
                 }
+                // `as_slice_mut` takes any contiguous array, Fortran order too, whose memory
+                // order is not the index order the readings are written in.
+                if !arr.as_array().is_standard_layout() {
+                    return Err(PyValueError::new_err(
+                        "out: expected a C-contiguous float32 array (row-major, as np.zeros \
+                         makes it), got another layout",
+                    ));
+                }
                 let slice = arr.as_slice_mut().map_err(|_| {
                     PyValueError::new_err("out: expected a C-contiguous float32 array")
                 })?;
@@ -852,6 +865,13 @@ impl PyWorlds {
             if seeds.is_empty() {
                 return Err(PyValueError::new_err("seeds: expected at least one seed"));
             }
+            if seeds.len() > MAX_WORLDS {
+                return Err(PyValueError::new_err(format!(
+                    "seeds: at most {MAX_WORLDS} worlds in one Worlds, got {} (each is a whole \
+                     simulation held in memory)",
+                    seeds.len()
+                )));
+            }
             let python = uses_python(&sc, &build);
             let built: Vec<Result<Sim, formica::ScenarioError>> = if python {
                 seeds
@@ -908,9 +928,21 @@ impl PyWorlds {
             })?;
             let mut sim = Sim::new(&self.scenario, &self.build, Some(seed))
                 .map_err(|e| scenario_error(py, &e))?;
-            sim.broken = true;
-            sim.ticks(ticks);
-            sim.broken = false;
+            // In chunks, the GIL released for each (Python controllers aside), so that Ctrl-C
+            // interrupts it.
+            let mut left = ticks;
+            while left > 0 && sim.run.outcome().is_none() {
+                let chunk = left.min(if self.python { 64 } else { 4096 });
+                sim.broken = true;
+                if self.python {
+                    sim.ticks(chunk);
+                } else {
+                    py.detach(|| sim.ticks(chunk));
+                }
+                sim.broken = false;
+                left -= chunk;
+                py.check_signals()?;
+            }
             let mut g = match m.try_lock() {
                 Ok(g) => g,
                 Err(TryLockError::Poisoned(p)) => p.into_inner(),
@@ -950,24 +982,52 @@ impl PyWorlds {
                     )));
                 }
                 let flat: Vec<f32> = a.iter().copied().collect();
-                for (k, g) in locks.iter_mut().enumerate() {
-                    let actions = g.actions_of(&flat[k * n * 2..(k + 1) * n * 2], None, None)?;
+                // Every world's actions are checked before any is set: a rejected call
+                // changes nothing.
+                let mut all = Vec::with_capacity(e);
+                for (k, g) in locks.iter().enumerate() {
+                    let actions = g
+                        .actions_of(&flat[k * n * 2..(k + 1) * n * 2], None, None)
+                        .map_err(|err| {
+                            PyValueError::new_err(format!(
+                                "step, world {k}: {}",
+                                err.value(py)
+                                    .str()
+                                    .map_or_else(|_| "bad wheel speeds".into(), |s| s.to_string())
+                            ))
+                        })?;
+                    all.push(actions);
+                }
+                for (g, actions) in locks.iter_mut().zip(all) {
                     g.held = Some(actions);
                     g.apply_held();
                 }
             }
-            let run = |g: &mut Sim| {
+            let run = |g: &mut Sim, chunk: u64| {
                 g.broken = true;
-                let o = g.ticks(ticks);
+                let o = g.ticks(chunk);
                 g.broken = false;
-                outcome_code(o)
+                o
             };
             let mut sims: Vec<&mut Sim> = locks.iter_mut().map(|g| &mut **g).collect();
-            let codes: Vec<i8> = if self.python {
-                sims.iter_mut().map(|g| run(g)).collect()
+            let outcomes: Vec<Option<Outcome>> = if self.python {
+                // World after world, on this thread (Python controllers see Ctrl-C).
+                sims.iter_mut().map(|g| run(g, ticks)).collect()
             } else {
-                py.detach(|| sims.par_iter_mut().map(|g| run(g)).collect())
+                // In chunks, the GIL released for each, so that Ctrl-C interrupts a long call
+                // (as `World.step`); a world that has ended ticks no more.
+                let mut left = ticks;
+                let mut outcomes: Vec<Option<Outcome>> =
+                    sims.iter().map(|g| g.run.outcome()).collect();
+                while left > 0 && outcomes.iter().any(Option::is_none) {
+                    let chunk = left.min(4096);
+                    outcomes = py.detach(|| sims.par_iter_mut().map(|g| run(g, chunk)).collect());
+                    left -= chunk;
+                    py.check_signals()?;
+                }
+                outcomes
             };
+            let codes: Vec<i8> = outcomes.into_iter().map(outcome_code).collect();
             Ok(PyArray1::from_vec(py, codes))
         })
     }
@@ -996,6 +1056,14 @@ impl PyWorlds {
                         "out: expected shape ({e}, {n}, {l}), got {:?}",
                         arr.as_array().shape()
                     )));
+                }
+                // `as_slice_mut` takes any contiguous array, Fortran order too, whose memory
+                // order is not the index order the readings are written in.
+                if !arr.as_array().is_standard_layout() {
+                    return Err(PyValueError::new_err(
+                        "out: expected a C-contiguous float32 array (row-major, as np.zeros \
+                         makes it), got another layout",
+                    ));
                 }
                 let slice = arr.as_slice_mut().map_err(|_| {
                     PyValueError::new_err("out: expected a C-contiguous float32 array")

@@ -156,3 +156,60 @@ def test_many_worlds_in_one_call():
     assert ws.seeds == [1, 9, 3] and ws.ticks.tolist() == [10, 1, 10]
     with pytest.raises(ValueError, match=r"shape \(3, 20, 2\)"):
         ws.step(np.zeros((2, 20, 2)))
+
+
+def test_a_readings_buffer_in_another_layout_is_refused_not_filled_out_of_order():
+    w = formica.World(SEED_TRANSPORT, seed=1)
+    w.step(5)
+    want = w.readings()
+    for buf in (np.zeros(want.shape, np.float32, order="F"), np.zeros(want.shape[::-1], np.float32).T):
+        with pytest.raises(ValueError, match="C-contiguous"):
+            w.readings(out=buf)
+    ws = formica.Worlds(SEED_TRANSPORT, [1, 2])
+    with pytest.raises(ValueError, match="C-contiguous"):
+        ws.readings(out=np.zeros(ws.readings().shape, np.float32, order="F"))
+
+
+def test_a_rejected_worlds_step_changes_no_world_and_names_the_one_at_fault():
+    ws = formica.Worlds(SEED_TRANSPORT, [1, 2, 3], controller="external")
+    before = ws.readings().copy()
+    a = np.full((3, 20, 2), 0.3)
+    a[2, 5, 0] = np.nan
+    with pytest.raises(ValueError, match="world 2"):
+        ws.step(a, 1)
+    ws.step(None, 5)
+    fresh = formica.Worlds(SEED_TRANSPORT, [1, 2, 3], controller="external")
+    fresh.step(None, 5)
+    assert np.array_equal(ws.readings(), fresh.readings())
+    assert before.shape == ws.readings().shape
+
+
+def test_calls_that_would_exhaust_memory_or_outlast_the_limits_are_value_errors():
+    with pytest.raises(ValueError, match="at most 1000000 seeds"):
+        formica.run(SEED_TRANSPORT, seeds=range(1_000_001), duration=0.1)
+    with pytest.raises(ValueError, match="at most 10000 worlds"):
+        formica.Worlds(SEED_TRANSPORT, list(range(10_001)))
+    with pytest.raises(ValueError, match="at most 1e6 seconds"):
+        formica.World(SEED_TRANSPORT, duration=1e7)
+
+
+def test_built_in_controller_names_cannot_be_taken_and_errors_pickle():
+    import pickle
+
+    class Mine:
+        def step(self, r):
+            return (0.0, 0.0)
+
+    for name in ("occlusion", "external"):
+        with pytest.raises(ValueError, match="built-in controller"):
+            formica.register_controller(name, Mine)
+        with pytest.raises(ValueError, match="built-in controller"):
+            formica.register_batched(name, lambda r: np.zeros((len(r), 2)))
+    assert "occlusion" in formica.controllers()
+    try:
+        formica.run("/nonexistent.toml", seeds=[1])
+    except formica.ScenarioError as e:
+        again = pickle.loads(pickle.dumps(e))
+        assert type(again) is formica.ScenarioError and str(again) == str(e)
+    else:
+        raise AssertionError("a missing file must raise ScenarioError")
