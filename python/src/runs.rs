@@ -81,7 +81,7 @@ pub fn run_seeds(
                 .map_err(|e| PyRuntimeError::new_err(format!("starting worker threads: {e}")))?;
             // Seeds in chunks, the GIL released for each, so that Ctrl-C stops the call
             // between chunks.
-            let chunk = (8 * pool.current_num_threads()).max(64);
+            let chunk = 2 * pool.current_num_threads();
             let mut out: Vec<Result<RunResult, formica::ScenarioError>> =
                 Vec::with_capacity(seeds.len());
             for part in seeds.chunks(chunk) {
