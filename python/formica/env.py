@@ -303,6 +303,8 @@ class TransportGymEnv(gymnasium.Env):
         return self.world.readings(), {"seed": s}
 
     def step(self, action):
+        if self.world is None:
+            raise RuntimeError("call reset() first")
         t = self._task
         a = np.asarray(action, dtype=np.float32)
         if a.shape != (t.n, 2):
@@ -364,6 +366,8 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
         return self._obs, {"seed": np.array(seeds)}
 
     def step(self, actions):
+        if self.worlds is None:
+            raise RuntimeError("call reset() first")
         t = self._task
         a = np.asarray(actions, dtype=np.float32)
         if a.shape != (self.num_envs, t.n, 2):

@@ -86,6 +86,15 @@ def test_the_vectorised_form_steps_many_worlds_and_autoresets():
         venv.step(np.zeros((4, 2)))
 
 
+def test_stepping_before_reset_says_to_reset():
+    for env, action in (
+        (fenv.TransportGymEnv(robots=2), np.zeros((2, 2), dtype=np.float32)),
+        (fenv.vector_env(num_envs=2, robots=2), np.zeros((2, 2, 2), dtype=np.float32)),
+    ):
+        with pytest.raises(RuntimeError, match=r"reset\(\) first"):
+            env.step(action)
+
+
 def test_the_default_scenario_works_outside_the_repository(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     env = fenv.parallel_env(robots=3)
