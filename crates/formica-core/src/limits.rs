@@ -116,6 +116,86 @@ pub fn span_of(text: &str, path: &str) -> Option<Range<usize>> {
     best
 }
 
+/// Keys whose value is a point or size `[x, y]`, and keys whose list items are `[x, y]` or
+/// `[a, b, c]`, wherever they stand outside a controller's free-form `params`.
+const PAIRS: [&str; 6] = ["at", "size", "center", "min", "max", "box"];
+const PAIR_ITEMS: [&str; 1] = ["polygon"];
+const TRIPLE_ITEMS: [&str; 2] = ["poses", "path"];
+
+/// The first list of numbers of the wrong length under a key of [`PAIRS`], [`PAIR_ITEMS`] or
+/// [`TRIPLE_ITEMS`] (controllers' `params` tables aside), with what it should be. A list of
+/// three where two are meant (`at = [2.5, 0.0, 0.5]`, an ARGoS habit: the third is a height
+/// here given apart) would otherwise lose its extra number without a word.
+pub fn wrong_length(text: &str) -> Option<(Range<usize>, String)> {
+    let doc = DeTable::parse(text).ok()?;
+    wrong_length_in(doc.get_ref())
+}
+
+fn numbers(v: &DeValue<'_>) -> Option<usize> {
+    match v {
+        DeValue::Array(a)
+            if a.iter()
+                .all(|x| !matches!(x.get_ref(), DeValue::Array(_) | DeValue::Table(_))) =>
+        {
+            Some(a.len())
+        }
+        _ => None,
+    }
+}
+
+fn wrong_length_in(t: &DeTable<'_>) -> Option<(Range<usize>, String)> {
+    for (key, value) in t.iter() {
+        let k = key.get_ref().as_ref();
+        if k == "params" {
+            continue;
+        }
+        if PAIRS.contains(&k) {
+            if let Some(n) = numbers(value.get_ref()).filter(|&n| n != 2) {
+                return Some((
+                    value.span(),
+                    format!("`{k}`: expected two numbers [x, y], got {n}"),
+                ));
+            }
+        }
+        let items = if PAIR_ITEMS.contains(&k) {
+            Some((2, "[x, y]"))
+        } else if TRIPLE_ITEMS.contains(&k) {
+            Some((
+                3,
+                if k == "poses" {
+                    "[x, y, heading_deg]"
+                } else {
+                    "[t, x, y]"
+                },
+            ))
+        } else {
+            None
+        };
+        if let (Some((want, shape)), DeValue::Array(list)) = (items, value.get_ref()) {
+            for item in list.iter() {
+                if let Some(n) = numbers(item.get_ref()).filter(|&n| n != want) {
+                    return Some((
+                        item.span(),
+                        format!("`{k}`: each item is {shape}, {want} numbers; got {n}"),
+                    ));
+                }
+            }
+        }
+        let found = match value.get_ref() {
+            DeValue::Table(inner) => wrong_length_in(inner),
+            DeValue::Array(list) => list.iter().find_map(|v| match v.get_ref() {
+                DeValue::Table(inner) => wrong_length_in(inner),
+                _ => None,
+            }),
+            _ => None,
+        };
+        if found.is_some() {
+            return found;
+        }
+    }
+    None
+}
+
 /// The span of key `k` in `t` and its value.
 fn find_key<'t, 'i>(
     t: &'t DeTable<'i>,

@@ -956,6 +956,9 @@ impl Scenario {
                 ),
             ));
         }
+        if let Some((span, message)) = limits::wrong_length(text) {
+            return Err(invalid(span.start, message));
+        }
         if let Some((at, token)) = non_finite_literal(text) {
             let (line, column) = line_col(text, at);
             return Err(ScenarioError::Invalid {

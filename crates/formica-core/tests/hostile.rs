@@ -150,6 +150,43 @@ fn repeated_vertices_and_vertices_on_a_straight_edge_are_dropped() {
 }
 
 #[test]
+fn a_point_with_a_third_number_is_refused_not_cut_short() {
+    // `at = [2.5, 0.0, 0.5]` (x, y, z, as ARGoS writes it) used to lose its 0.5 silently.
+    for (body, needle, msg) in [
+        (
+            "[[objects]]\nat = [-1.0, 0.0, 0.5]\nshape = { box = [0.5, 0.5] }\n",
+            "[-1.0, 0.0, 0.5]",
+            "`at`: expected two numbers [x, y], got 3",
+        ),
+        (
+            "[[objects]]\nat = [-1.0, 0.0]\nshape = { box = [0.5, 0.5, 0.2] }\n",
+            "[0.5, 0.5, 0.2]",
+            "`box`: expected two numbers [x, y], got 3",
+        ),
+        (
+            "[[objects]]\nat = [-1.0, 0.0]\nshape = { polygon = [[0, 0], [1, 0, 0], [0, 1]] }\n",
+            "[1, 0, 0]",
+            "`polygon`: each item is [x, y], 2 numbers; got 3",
+        ),
+    ] {
+        let t = text(&format!("{body}{ROBOTS}"));
+        let (line, _, message) = refused(&t);
+        assert_eq!(line, line_of(&t, needle), "{message}\n{t}");
+        assert!(message.contains(msg), "`{msg}` not in: {message}");
+    }
+    // A controller's own parameters are its business: a list of three there is fine.
+    let body = format!(
+        "{OBJECT}[[robots]]\ncount = 3\ncontroller = \"random-walk\"\nparams = {{ at = [1, 2, 3] }}\nplacement = {{ random = {{ min = [0.5, -1.0], max = [2.0, 1.0] }} }}\n"
+    );
+    let t = text(&body);
+    let e = Scenario::parse(&t, "t.toml")
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(!e.contains("expected two numbers"), "{e}");
+}
+
+#[test]
 fn huge_regular_sides_is_refused() {
     let body = format!(
         "[[objects]]\nat = [-1.0, 0.0]\nshape = {{ regular = {{ sides = 4000000000, radius = 0.3 }} }}\n{ROBOTS}"
