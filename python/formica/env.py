@@ -35,6 +35,7 @@ overrides), ``sensors`` (which sensors to compute; default proximity, light, bea
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from typing import Any, Optional
 
@@ -61,6 +62,17 @@ SENSORS = ("proximity", "light", "beacon", "camera")
 
 
 
+def _whole(name: str, value, least: int = 1) -> int:
+    """``value`` as a whole number of at least ``least``; a fraction (``1.9``), a bool or a
+    string is a ValueError naming ``name``, not a number cut short."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        if not (isinstance(value, numbers.Real) and float(value).is_integer()):
+            raise ValueError(f"{name}: expected a whole number, got {value!r}")
+    if int(value) < least:
+        raise ValueError(f"{name}: expected at least {least}, got {value!r}")
+    return int(value)
+
+
 def prepare_scenario(scenario, robots=None, set=None, sensors=DEFAULT_SENSORS):
     """A copy of ``scenario`` (a path or a :class:`formica.Scenario`; the default
     ``scenarios/seed-transport.toml`` also works outside the repository, from a copy inside
@@ -77,7 +89,9 @@ def prepare_scenario(scenario, robots=None, set=None, sensors=DEFAULT_SENSORS):
     for key, value in (set or {}).items():
         sc.set(key, value)
     if robots is not None:
-        sc.set("robots.0.count", int(robots))
+        sc.set("robots.0.count", _whole("robots", robots))
+    if isinstance(sensors, str):
+        sensors = (sensors,)
     unknown = [s for s in sensors if s not in SENSORS]
     if unknown:
         raise ValueError(f"sensors: unknown {unknown}, expected some of {list(SENSORS)}")
@@ -106,13 +120,13 @@ class _Task:
         wall_penalty: float = 10.0,
         time_penalty: float = 0.0,
     ):
-        if int(frame_skip) < 1:
-            raise ValueError(f"frame_skip: expected at least 1, got {frame_skip}")
-        if max_steps is not None and int(max_steps) < 1:
-            raise ValueError(f"max_steps: expected at least 1, got {max_steps}")
+        frame_skip = _whole("frame_skip", frame_skip)
+        max_steps = None if max_steps is None else _whole("max_steps", max_steps)
+        if isinstance(sensors, str):
+            sensors = (sensors,)
         self.scenario = prepare_scenario(scenario, robots, set, tuple(sensors))
-        self.frame_skip = int(frame_skip)
-        self.max_steps = None if max_steps is None else int(max_steps)
+        self.frame_skip = frame_skip
+        self.max_steps = max_steps
         self.progress_reward = float(progress_reward)
         self.success_reward = float(success_reward)
         self.wall_penalty = float(wall_penalty)

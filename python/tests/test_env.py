@@ -86,6 +86,16 @@ def test_the_vectorised_form_steps_many_worlds_and_autoresets():
         venv.step(np.zeros((4, 2)))
 
 
+def test_options_that_are_not_whole_numbers_are_refused_not_cut_short():
+    for kwargs, name in (({"frame_skip": 1.9}, "frame_skip"), ({"robots": 2.7}, "robots"), ({"max_steps": 2.5}, "max_steps"), ({"frame_skip": 0}, "frame_skip")):
+        with pytest.raises(ValueError, match=name):
+            fenv.TransportGymEnv(**kwargs)
+    # Whole numbers in any numeric type still do, and one sensor may be named alone.
+    env = fenv.TransportGymEnv(robots=np.int64(3), frame_skip=2.0, sensors="proximity")
+    obs, _ = env.reset(seed=1)
+    assert obs.shape[0] == 3
+
+
 def test_stepping_before_reset_says_to_reset():
     for env, action in (
         (fenv.TransportGymEnv(robots=2), np.zeros((2, 2), dtype=np.float32)),
