@@ -927,7 +927,9 @@ pub(crate) fn codes_of(
     who: &str,
     what: &str,
 ) -> PyResult<Vec<i64>> {
-    let arr: PyArrayLike1<'_, i64, AllowTypeChange> = v.extract().map_err(|_| {
+    // Read as float64 and checked, so that 1.7 or NaN is refused rather than cast to 1 or
+    // to i64::MIN (as numpy's integer cast would).
+    let arr: PyArrayLike1<'_, f64, AllowTypeChange> = v.extract().map_err(|_| {
         PyValueError::new_err(format!(
             "{who}: {what} must be an integer array of shape ({n},)"
         ))
@@ -939,7 +941,18 @@ pub(crate) fn codes_of(
             a.shape()
         )));
     }
-    Ok(a.iter().copied().collect())
+    a.iter()
+        .enumerate()
+        .map(|(k, &x)| {
+            if x.is_finite() && x.fract() == 0.0 && x.abs() <= 1e15 {
+                Ok(x as i64)
+            } else {
+                Err(PyValueError::new_err(format!(
+                    "{who}: {what} must be whole-number codes, got {x} at index {k}"
+                )))
+            }
+        })
+        .collect()
 }
 
 /// Registers a batched Python controller: `maker(layout, params)` returns the function that

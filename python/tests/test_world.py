@@ -213,3 +213,12 @@ def test_built_in_controller_names_cannot_be_taken_and_errors_pickle():
         assert type(again) is formica.ScenarioError and str(again) == str(e)
     else:
         raise AssertionError("a missing file must raise ScenarioError")
+
+
+def test_led_and_attach_codes_must_be_whole_numbers():
+    w = formica.World(SEED_TRANSPORT, controller="external")
+    n = len(w.leds)
+    for leds, attach in ((np.full(n, 1.7), None), (np.full(n, np.nan), None), (None, np.full(n, 0.9))):
+        with pytest.raises(ValueError, match="whole-number codes"):
+            w.set_actions(np.zeros((n, 2)), leds=leds, attach=attach)
+    w.set_actions(np.zeros((n, 2)), leds=np.full(n, 1.0), attach=np.zeros(n, dtype=np.int8))
