@@ -348,8 +348,8 @@ fn wheels_array(wheels: &Bound<'_, PyAny>, n: usize, who: &str) -> PyResult<Vec<
 /// Arrays (fresh numpy arrays each call; N robots, M objects, L readings per robot):
 /// `robot_poses` `[N, 3]` float32 (x m, y m, theta rad), `leds` `[N]` uint8 (codes into
 /// `formica.COLORS`), `states` (list of N str), `released` / `attached` `[N]` bool,
-/// `wheel_speeds` `[N, 2]` float32 (m/s, what the robots are told to drive with next; the model caps each wheel at its top speed), `object_poses`
-/// `[M, 3]` float32 (x m, y m, theta rad of each object's frame), `object_centers` `[M, 2]`
+/// `wheel_speeds` `[N, 2]` float32 (m/s, what the robots are told to drive with next; the
+/// model caps each wheel at its top speed), `object_poses` `[M, 3]` float32 (x m, y m, theta rad of each object's frame), `object_centers` `[M, 2]`
 /// (centre of mass, m), `readings()` `[N, L]` float32 (see `reading_names()`).
 #[pyclass(module = "formica", name = "World")]
 pub struct PyWorld {
