@@ -180,8 +180,9 @@ impl PyRng {
 
     /// A Gaussian draw with mean `mean` and standard deviation `sd`.
     #[pyo3(signature = (mean = 0.0, sd = 1.0))]
-    fn normal(&mut self, mean: f64, sd: f64) -> f64 {
-        mean + sd * f64::from(formica::ops::standard_normal(&mut self.inner))
+    fn normal(&mut self, mean: f64, sd: f64) -> PyResult<f64> {
+        check_normal(mean, sd)?;
+        Ok(mean + sd * f64::from(formica::ops::standard_normal(&mut self.inner)))
     }
 
     /// An integer in [low, high).
@@ -253,19 +254,36 @@ impl PyRngs {
 
     /// Gaussian draws, shape `[N]`.
     #[pyo3(signature = (mean = 0.0, sd = 1.0))]
-    fn normal<'py>(&mut self, py: Python<'py>, mean: f64, sd: f64) -> Bound<'py, PyArray1<f64>> {
+    fn normal<'py>(
+        &mut self,
+        py: Python<'py>,
+        mean: f64,
+        sd: f64,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        check_normal(mean, sd)?;
         let v = self
             .inner
             .iter_mut()
             .map(|r| mean + sd * f64::from(formica::ops::standard_normal(r)))
             .collect();
-        PyArray1::from_vec(py, v)
+        Ok(PyArray1::from_vec(py, v))
     }
 
     /// Fair coins, shape `[N]`.
     fn coin<'py>(&mut self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
         let v = self.inner.iter_mut().map(|r| r.random::<bool>()).collect();
         PyArray1::from_vec(py, v)
+    }
+}
+
+/// A Gaussian's parameters: a finite mean and a finite standard deviation of 0 or more.
+fn check_normal(mean: f64, sd: f64) -> PyResult<()> {
+    if mean.is_finite() && sd.is_finite() && sd >= 0.0 {
+        Ok(())
+    } else {
+        Err(PyValueError::new_err(format!(
+            "normal: expected a finite mean and a finite sd >= 0, got {mean}, {sd}"
+        )))
     }
 }
 

@@ -180,6 +180,10 @@ def test_the_rng_is_deterministic_per_seed():
     assert 0.0 <= a.uniform(0.0, 1.0) < 1.0 and a.integers(2, 3) == 2
     with pytest.raises(ValueError):
         a.uniform(1.0, 0.0)
+    for mean, sd in ((0.0, -1.0), (0.0, float("nan")), (float("inf"), 1.0)):
+        with pytest.raises(ValueError, match="sd >= 0"):
+            a.normal(mean, sd)
+    assert a.normal(2.0, 0.0) == 2.0
 
 
 def test_a_sweep_runs_python_controllers_into_a_store(tmp_path):
