@@ -54,42 +54,44 @@ struct Cli {
     command: Command,
 }
 
-// Every subcommand takes negative numbers as values (`--duration -1` is refused with the
-// option's own message, not taken for an unknown flag `-1`).
 #[derive(Subcommand)]
 enum Command {
     /// Run a scenario headless (one seed, or a range of seeds in parallel).
-    #[command(allow_negative_numbers = true)]
     Run(cmd_run::Args),
     /// Validate a scenario file and describe what it sets up.
-    #[command(allow_negative_numbers = true)]
     Check(cmd_check::Args),
     /// Measure robot-ticks per second on the standard scaled transport world.
-    #[command(allow_negative_numbers = true)]
     Bench(cmd_bench::Args),
     /// Run a parameter sweep into a SQLite result store (resumable).
-    #[command(allow_negative_numbers = true)]
     Sweep(cmd_sweep::Args),
     /// Export a result store to CSV.
-    #[command(allow_negative_numbers = true)]
     Export(cmd_export::Args),
     /// Plots and a Markdown summary from a result store.
-    #[command(allow_negative_numbers = true)]
     Report(cmd_report::Args),
     /// Merge shard result stores into one.
-    #[command(allow_negative_numbers = true)]
     Merge(cmd_merge::Args),
     /// Write (and optionally submit) a Slurm job-array script for a sweep.
-    #[command(allow_negative_numbers = true)]
     Slurm(cmd_slurm::Args),
     /// Serve a live viewer of a scenario on 127.0.0.1.
-    #[command(allow_negative_numbers = true)]
     Serve(cmd_serve::Args),
     /// Render a run to an animated GIF or an MP4 video.
-    #[command(allow_negative_numbers = true)]
     Record(cmd_record::Args),
     /// Print the JSON Schema of scenario or sweep files (for editors), or the scenario reference.
     Schema(schema::Args),
+}
+
+/// Parses the command line, as `Cli::try_parse_from` does, with every subcommand taking
+/// negative numbers as values: `--duration -1` gets the option's own message, not clap's
+/// "unexpected argument '-1'" (whatever subcommands there are, added later ones too).
+fn parse<I, T>(args: I) -> Result<Cli, clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    use clap::{CommandFactory, FromArgMatches};
+    let mut cmd = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
+    let mut matches = cmd.try_get_matches_from_mut(args)?;
+    Cli::from_arg_matches_mut(&mut matches).map_err(|e| e.format(&mut cmd))
 }
 
 /// An error with the exit code it deserves: 2 for bad input, 1 otherwise.
@@ -315,7 +317,7 @@ where
     registry.install();
     let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
     set_program(args.first());
-    let cli = match Cli::try_parse_from(args) {
+    let cli = match parse(args) {
         Ok(cli) => cli,
         Err(e) => {
             // Help and version go to stdout with code 0, usage errors to stderr with code 2.
@@ -367,7 +369,7 @@ where
     T: Into<OsString> + Clone,
 {
     registry.install();
-    let cli = Cli::try_parse_from(args).map_err(|e| CommandError {
+    let cli = parse(args).map_err(|e| CommandError {
         code: u8::try_from(e.exit_code()).unwrap_or(2),
         message: e.render().to_string(),
     })?;
