@@ -5,7 +5,7 @@ use crate::CliError;
 use anyhow::Context;
 use rusqlite::types::Value as SqlValue;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `formica export`.
 #[derive(clap::Args)]
@@ -41,26 +41,33 @@ fn cell(v: &SqlValue) -> String {
     }
 }
 
-/// Opens `path` (`-`: standard output) for writing, creating its folder, unless it is the
-/// store `db` being read (checked again once its folder exists, so that no path to it slips
-/// through).
-fn open_out(path: &PathBuf, db: &std::path::Path) -> Result<Box<dyn Write>, CliError> {
+/// Gets output `path` ready to write: creates its folder, and refuses it if it is the store
+/// `db` being read (checked once the folder exists, so that no path to it slips through).
+/// `-` (standard output) needs nothing.
+fn prepare_out(path: &Path, db: &Path) -> Result<(), CliError> {
+    if path.as_os_str() == "-" {
+        return Ok(());
+    }
+    if let Some(d) = path.parent() {
+        if d.is_file() {
+            return Err(CliError::Input(format!(
+                "{}: `{}` is a file, not a folder",
+                path.display(),
+                d.display()
+            )));
+        }
+        if !d.as_os_str().is_empty() {
+            std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
+        }
+    }
+    crate::refuse_overwriting(path, db, "result store")
+}
+
+/// Opens `path` (`-`: standard output) for writing; [`prepare_out`] has checked it.
+fn open_out(path: &Path) -> Result<Box<dyn Write>, CliError> {
     Ok(if path.as_os_str() == "-" {
         Box::new(std::io::stdout().lock())
     } else {
-        if let Some(d) = path.parent() {
-            if d.is_file() {
-                return Err(CliError::Input(format!(
-                    "{}: `{}` is a file, not a folder",
-                    path.display(),
-                    d.display()
-                )));
-            }
-            if !d.as_os_str().is_empty() {
-                std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
-            }
-        }
-        crate::refuse_overwriting(path, db, "result store")?;
         Box::new(std::io::BufWriter::new(
             std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
         ))
@@ -114,15 +121,14 @@ pub fn write_trials(store: &Store, out: &mut dyn Write) -> Result<usize, CliErro
 
 /// Runs the command.
 pub fn main(a: Args) -> Result<(), CliError> {
+    // Every output checked before anything is written.
     for out in std::iter::once(&a.csv).chain(&a.trajectories) {
-        if out.as_os_str() != "-" {
-            crate::refuse_overwriting(out, &a.db, "result store")?;
-        }
+        prepare_out(out, &a.db)?;
     }
     let store = Store::open_existing(&a.db)?;
-    let n = write_trials(&store, &mut open_out(&a.csv, &a.db)?)?;
+    let n = write_trials(&store, &mut open_out(&a.csv)?)?;
     if let Some(tp) = &a.trajectories {
-        let mut out = open_out(tp, &a.db)?;
+        let mut out = open_out(tp)?;
         writeln!(out, "params,seed,t,x,y,theta").context("writing CSV")?;
         for (p, seed, samples) in store.trajectories(usize::MAX >> 1)? {
             let pq = csv_field(&p);
