@@ -153,17 +153,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .clone()
         .unwrap_or_else(|| dir.join(format!("{stem}.slurm")));
     crate::refuse_overwriting(&script_path, &a.sweep, "sweep file")?;
-    if let Ok(old) = std::fs::read_to_string(&script_path) {
-        if !old.starts_with(SCRIPT_HEAD) {
-            return Err(CliError::Input(format!(
-                "{}: exists and is not a script that formica slurm wrote; give another --script \
-                 or remove it",
-                script_path.display()
-            )));
-        }
-    } else if script_path.exists() {
+    let ours = match std::fs::read_to_string(&script_path) {
+        Ok(old) => old.starts_with(SCRIPT_HEAD),
+        Err(_) => !script_path.exists(),
+    };
+    if !ours {
         return Err(CliError::Input(format!(
-            "{}: exists and is not a script that formica slurm wrote; give another --script",
+            "{}: exists and is not a script that formica slurm wrote; give another --script \
+             or remove it",
             script_path.display()
         )));
     }
