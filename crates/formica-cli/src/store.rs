@@ -159,7 +159,8 @@ impl Store {
         let conn = Connection::open(path).with_context(|| format!("opening {}", path.display()))?;
         conn.busy_timeout(std::time::Duration::from_secs(30))
             .context("setting the busy timeout")?;
-        // Another program's SQLite file gets no tables of ours: refuse it before writing.
+        // The first statement that reads the file: one that is not SQLite fails here, and
+        // another program's SQLite file is refused before anything of ours is written to it.
         let tables = match table_names(&conn) {
             Ok(t) => t,
             Err(e) if e.sqlite_error_code() == Some(rusqlite::ErrorCode::NotADatabase) => {
@@ -185,19 +186,10 @@ impl Store {
                 }
             )));
         }
-        // WAL: a committed trial survives the process being killed at any moment.
-        // The first statement reads the file: a file that is not SQLite fails here.
-        if let Err(e) = conn.pragma_update(None, "journal_mode", "WAL") {
-            if e.sqlite_error_code() == Some(rusqlite::ErrorCode::NotADatabase) {
-                return Err(CliError::Input(format!(
-                    "{}: not a result store (not an SQLite file)",
-                    path.display()
-                )));
-            }
-            return Err(anyhow::Error::new(e)
-                .context(format!("{}: enabling WAL", path.display()))
-                .into());
-        }
+        // WAL: a committed trial survives the process being killed at any moment. (A file
+        // that is not SQLite failed above, at the first statement that read it.)
+        conn.pragma_update(None, "journal_mode", "WAL")
+            .with_context(|| format!("{}: enabling WAL", path.display()))?;
         conn.pragma_update(None, "synchronous", "NORMAL")
             .context("setting synchronous")?;
         let metrics: Vec<String> = METRICS
