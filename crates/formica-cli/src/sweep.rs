@@ -328,28 +328,41 @@ impl Sweep {
                 )));
             }
         }
+        // The grid's size is known before it is built (cases times the product of the vary
+        // lists): a grid too large is refused at the key that makes it so, not allocated.
+        let too_large = |sets: u64| {
+            if sets > formica::limits::MAX_SETS {
+                Some(format!(
+                    "the grid has more than {} parameter sets; split the sweep (or vary fewer \
+                     values at once)",
+                    formica::limits::MAX_SETS
+                ))
+            } else if sets.saturating_mul(seeds.len() as u64) > formica::limits::MAX_TRIALS {
+                Some(format!(
+                    "the grid has more than {} trials (parameter sets times seeds); split the \
+                     sweep",
+                    formica::limits::MAX_TRIALS
+                ))
+            } else {
+                None
+            }
+        };
+        let mut size = cases.len() as u64;
+        if let Some(m) = too_large(size) {
+            return Err(input(m));
+        }
+        for (k, values) in &vary {
+            size = size.saturating_mul(values.len() as u64);
+            if let Some(m) = too_large(size) {
+                return Err(input(format!("`{k}`: {m}")));
+            }
+        }
         // Grid: cases (outer) x product of vary lists (last key fastest).
-        let mut grid: Vec<Params> = Vec::new();
+        let mut grid: Vec<Params> = Vec::with_capacity(size as usize);
         for case in &cases {
             let mut combos: Vec<Params> =
                 vec![case.iter().map(|(k, v)| (k.clone(), v.clone())).collect()];
             for (k, values) in &vary {
-                let n = (grid.len() as u64)
-                    .saturating_add((combos.len() as u64).saturating_mul(values.len() as u64));
-                if n > formica::limits::MAX_SETS {
-                    return Err(input(format!(
-                        "`{k}`: the grid has more than {} parameter sets; split the sweep (or \
-                         vary fewer values at once)",
-                        formica::limits::MAX_SETS
-                    )));
-                }
-                if n.saturating_mul(seeds.len() as u64) > formica::limits::MAX_TRIALS {
-                    return Err(input(format!(
-                        "`{k}`: the grid has more than {} trials (parameter sets times seeds); \
-                         split the sweep",
-                        formica::limits::MAX_TRIALS
-                    )));
-                }
                 let mut next = Vec::with_capacity(combos.len() * values.len());
                 for c in &combos {
                     for v in values {
@@ -361,20 +374,6 @@ impl Sweep {
                 combos = next;
             }
             grid.extend(combos);
-            if grid.len() as u64 > formica::limits::MAX_SETS {
-                return Err(input(format!(
-                    "the grid has more than {} parameter sets; split the sweep",
-                    formica::limits::MAX_SETS
-                )));
-            }
-        }
-        if (grid.len() as u64).saturating_mul(seeds.len() as u64) > formica::limits::MAX_TRIALS {
-            return Err(input(format!(
-                "{} parameter sets times {} seeds is more than {} trials; split the sweep",
-                grid.len(),
-                seeds.len(),
-                formica::limits::MAX_TRIALS
-            )));
         }
         let mut keys: Vec<String> = Vec::new();
         for p in &grid {

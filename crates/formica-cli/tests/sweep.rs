@@ -589,6 +589,15 @@ fn a_sweep_that_sets_the_seed_or_the_duration_twice_is_refused_at_the_line() {
         ),
         ("seeds = [1, 2, -3]\n", 2, "`seeds`: expected"),
         (
+            &format!(
+                "seeds = \"1\"\n[vary]\n\"objects.0.mass\" = [{}]\n\"robots.0.count\" = [{}]\n",
+                (1..=400).map(|i| i.to_string()).collect::<Vec<_>>().join(", "),
+                (1..=300).map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
+            ),
+            5,
+            "`robots.0.count`: the grid has more than 100000 parameter sets",
+        ),
+        (
             "seeds = \"1\"\n[vary]\n\"robots.0.count\" = [3, 5, 3]\n",
             4,
             "the value 3 is listed twice",
