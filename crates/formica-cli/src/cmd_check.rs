@@ -55,7 +55,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     for (i, o) in w.objects.iter().enumerate() {
         let c = w.object_center(i);
         let kind = if o.movable { "movable" } else { "static" };
-        let friction = s.objects[i].get_ref().floor_mu * o.mass * formica::physics::GRAVITY;
+        let friction = floor_friction(&sc, w, i);
         outln!(
             "  object {i} \"{}\": {kind}, {} part(s), centre ({:.3}, {:.3}), {} kg, height {} m, size {:.3} m, floor friction {:.2} N",
             o.name,
@@ -310,6 +310,12 @@ fn goal_out_of_reach_warning(sc: &Scenario, w: &World, i: usize) -> Option<Strin
     ))
 }
 
+/// Object `i`'s floor friction (N): the force it takes to slide it, `floor_mu m g` (the
+/// world holds one object per `[[objects]]` entry, in order).
+fn floor_friction(sc: &Scenario, w: &World, i: usize) -> f32 {
+    sc.spec.objects[i].get_ref().floor_mu * w.objects[i].mass * formica::physics::GRAVITY
+}
+
 /// For the target of the goal: a warning if every robot of the scenario pushing at once
 /// gives no more than the object's floor friction (it cannot move).
 fn too_heavy_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
@@ -317,7 +323,7 @@ fn too_heavy_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
         return None;
     }
     let o = &w.objects[i];
-    let friction = sc.spec.objects.get(i)?.get_ref().floor_mu * o.mass * formica::physics::GRAVITY;
+    let friction = floor_friction(sc, w, i);
     let all: f32 = (0..w.robots.len())
         .map(|r| w.robot_model(r).max_force)
         .sum();
