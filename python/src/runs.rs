@@ -29,9 +29,6 @@ fn run_attached(
     Ok(run.result())
 }
 
-/// Most seeds of one `formica.run` call (as `formica run --seeds`).
-const MAX_RUN_SEEDS: usize = 1_000_000;
-
 /// Runs `scenario` once per seed and returns the results as dicts, in seed order: the JSON
 /// lines of `formica run --json`. `threads`: worker threads (default: every core, or 1 when
 /// Python controllers run, which then step on the calling thread).
@@ -56,9 +53,10 @@ pub fn run_seeds(
         if threads == Some(0) {
             return Err(PyValueError::new_err("threads: expected at least 1"));
         }
-        if seeds.len() > MAX_RUN_SEEDS {
+        let max = formica::limits::MAX_RUN_SEEDS;
+        if seeds.len() as u64 > max {
             return Err(PyValueError::new_err(format!(
-                "seeds: at most {MAX_RUN_SEEDS} seeds a call, got {} (as `formica run --seeds`; \
+                "seeds: at most {max} seeds a call, got {} (as `formica run --seeds`; \
                  formica.sweep stores each trial as it ends and takes more)",
                 seeds.len()
             )));

@@ -84,16 +84,14 @@ pub fn seed_range(s: &str) -> Result<std::ops::RangeInclusive<u64>, String> {
     Ok(a..=b)
 }
 
-/// Most seeds of one `run --seeds`: it keeps every result for its closing summary.
-const MAX_RUN_SEEDS: u64 = 1_000_000;
-
 /// Parses `--seeds A..B`.
 pub fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, CliError> {
     let seeds = seed_range(s).map_err(|m| CliError::Input(format!("--seeds: {m}")))?;
-    if seeds.end() - seeds.start() >= MAX_RUN_SEEDS {
+    let max = formica::limits::MAX_RUN_SEEDS;
+    if seeds.end() - seeds.start() >= max {
         return Err(CliError::Input(format!(
             "--seeds: `{s}` is {} seeds; formica run keeps every result for its summary, at \
-             most {MAX_RUN_SEEDS} (a sweep file stores each trial as it ends, resumes, and \
+             most {max} (a sweep file stores each trial as it ends, resumes, and \
              takes up to {} trials)",
             (seeds.end() - seeds.start()).saturating_add(1),
             formica::limits::MAX_TRIALS
@@ -132,7 +130,8 @@ pub fn parse_set(item: &str) -> Result<(String, toml::Value), CliError> {
         Err(_) if value.trim_start_matches(['-', '+']).parse::<u128>().is_ok() => {
             Err(CliError::Input(format!(
                 "--set {key}={value}: number out of range (whole numbers are 64-bit, up to \
-                 9223372036854775807)"
+                 {})",
+                i64::MAX
             )))
         }
         Err(e) => Err(CliError::Input(format!(

@@ -165,8 +165,8 @@ pub(crate) enum FileKind {
     Sqlite,
 }
 
-/// The kind of file at `path`, if it is one of [`FileKind`]'s (read at most 64 MiB, as a
-/// scenario or sweep file may be).
+/// The kind of file at `path`, if it is one of [`FileKind`]'s (read only up to the size a
+/// scenario file may have, [`formica::limits::MAX_FILE_BYTES`]).
 pub(crate) fn file_kind(path: &std::path::Path) -> Option<FileKind> {
     use std::io::Read;
     let mut head = [0u8; 16];
@@ -174,7 +174,7 @@ pub(crate) fn file_kind(path: &std::path::Path) -> Option<FileKind> {
     if f.read_exact(&mut head).is_ok() && &head == b"SQLite format 3\0" {
         return Some(FileKind::Sqlite);
     }
-    if std::fs::metadata(path).ok()?.len() > 64 << 20 {
+    if std::fs::metadata(path).ok()?.len() > formica::limits::MAX_FILE_BYTES as u64 {
         return None;
     }
     let table: toml::Table = toml::from_str(&std::fs::read_to_string(path).ok()?).ok()?;

@@ -53,6 +53,9 @@ pub const MAX_DURATION_S: f32 = 1.0e6;
 pub const MAX_SEED: u64 = i64::MAX as u64;
 /// Most trials (parameter sets times seeds) one `run --seeds` or sweep file may ask for.
 pub const MAX_TRIALS: u64 = 10_000_000;
+/// Most seeds of one `formica run --seeds` or `formica.run` call: each keeps every result for
+/// its closing summary (a sweep stores each trial as it ends and takes [`MAX_TRIALS`]).
+pub const MAX_RUN_SEEDS: u64 = 1_000_000;
 /// Most parameter sets of one sweep file: each is a scenario built and checked when the sweep
 /// loads (about 3 KB and 0.4 ms a set), so that a grid of millions is refused, not allocated.
 pub const MAX_SETS: u64 = 100_000;
