@@ -92,6 +92,13 @@ pub struct Part {
     pub yaw_deg: f32,
 }
 
+impl Part {
+    /// Where the part sits in the object's frame, as the collision engine takes it.
+    fn placement(&self) -> rapier2d::math::Pose {
+        rapier2d::math::Pose::new(Vec2::new(self.at[0], self.at[1]), self.yaw_deg.to_radians())
+    }
+}
+
 /// A geometry error, described for humans.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{0}")]
@@ -218,8 +225,7 @@ pub fn polygon_vertices(v: &[[f32; 2]]) -> Vec<Vec2> {
     }
     let straight = |i: usize| {
         let (a, b, c) = (pts[(i + n - 1) % n], pts[i], pts[(i + 1) % n]);
-        let (e, f) = (b - a, c - b);
-        e.perp_dot(f).abs() <= 1e-5 * e.length() * f.length() && e.dot(f) > 0.0
+        collinear(a, b, c) && (b - a).dot(c - b) > 0.0
     };
     let kept: Vec<Vec2> = (0..n).filter(|&i| !straight(i)).map(|i| pts[i]).collect();
     // Every vertex on one line: no polygon; leave them for the check to refuse.
@@ -260,7 +266,7 @@ fn compound_shape_unchecked(parts: &[Part]) -> Result<SharedShape, ShapeError> {
     let mut shapes = Vec::with_capacity(parts.len());
     for p in parts {
         let s = p.shape.shared_shape()?;
-        let pose = rapier2d::math::Pose::new(Vec2::new(p.at[0], p.at[1]), p.yaw_deg.to_radians());
+        let pose = p.placement();
         // A compound cannot nest a compound: flatten concave polygons.
         if let Some(c) = s.as_compound() {
             for (sub_pose, sub) in c.shapes() {
@@ -295,23 +301,17 @@ pub fn part_outlines(parts: &[Part], disc_segments: usize) -> Vec<Vec<Vec2>> {
 /// as pieces of their own.
 pub fn part_pieces(parts: &[Part], gap: f32) -> Vec<Vec<usize>> {
     let n = parts.len();
-    let shapes: Vec<Option<(rapier2d::math::Pose, SharedShape)>> = parts
+    use rapier2d::parry::bounding_volume::BoundingVolume;
+    // Each well-formed part's shape, placement and bounding box (widened by `gap`): only
+    // parts whose boxes meet get the exact query.
+    let shapes: Vec<Option<(rapier2d::math::Pose, SharedShape, _)>> = parts
         .iter()
         .map(|p| {
-            let pose =
-                rapier2d::math::Pose::new(Vec2::new(p.at[0], p.at[1]), p.yaw_deg.to_radians());
-            p.shape.shared_shape().ok().map(|s| (pose, s))
-        })
-        .collect();
-    // Bounding boxes first, so that only parts near each other get the exact query.
-    let boxes: Vec<(Vec2, Vec2)> = part_outlines(parts, 24)
-        .iter()
-        .map(|o| {
-            let lo = o.iter().fold(Vec2::splat(f32::INFINITY), |a, p| a.min(*p));
-            let hi = o
-                .iter()
-                .fold(Vec2::splat(f32::NEG_INFINITY), |a, p| a.max(*p));
-            (lo - Vec2::splat(gap), hi + Vec2::splat(gap))
+            let pose = p.placement();
+            p.shape.shared_shape().ok().map(|s| {
+                let aabb = s.compute_aabb(&pose).loosened(gap);
+                (pose, s, aabb)
+            })
         })
         .collect();
     let mut root: Vec<usize> = (0..n).collect();
@@ -324,13 +324,12 @@ pub fn part_pieces(parts: &[Part], gap: f32) -> Vec<Vec<usize>> {
     }
     for i in 0..n {
         for j in (i + 1)..n {
-            let ((lo_a, hi_a), (lo_b, hi_b)) = (boxes[i], boxes[j]);
-            if lo_a.x > hi_b.x || lo_b.x > hi_a.x || lo_a.y > hi_b.y || lo_b.y > hi_a.y {
-                continue;
-            }
-            let (Some((pa, sa)), Some((pb, sb))) = (&shapes[i], &shapes[j]) else {
+            let (Some((pa, sa, ba)), Some((pb, sb, bb))) = (&shapes[i], &shapes[j]) else {
                 continue;
             };
+            if !ba.intersects(bb) {
+                continue;
+            }
             let near = rapier2d::parry::query::distance(pa, sa.as_ref(), pb, sb.as_ref())
                 .is_ok_and(|d| d.distance <= gap);
             if near {
@@ -406,6 +405,13 @@ fn segments_cross(a: Vec2, b: Vec2, c: Vec2, d: Vec2) -> bool {
     on(c, d, a, d1) || on(c, d, b, d2) || on(a, b, c, d3) || on(a, b, d, d4)
 }
 
+/// Whether `b` lies on the line through `a` and `c`: the turn at `b`, relative to the two
+/// edges' lengths, is nothing (straight on, or folding back along itself).
+fn collinear(a: Vec2, b: Vec2, c: Vec2) -> bool {
+    let (e, f) = (b - a, c - b);
+    e.perp_dot(f).abs() <= 1e-5 * e.length() * f.length()
+}
+
 /// Checks that a polygon is simple: at least three distinct vertices, non-zero area, and no
 /// two non-adjacent edges touching.
 pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
@@ -430,11 +436,9 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
     }
     for i in 0..n {
         let (a, b, c) = (pts[i], pts[(i + 1) % n], pts[(i + 2) % n]);
-        // The turn at `b`, relative to the two edges' lengths: a vertex on the line through
-        // its neighbours adds nothing (straight on) or folds the outline back on itself (a
-        // spike of no width).
-        let (e, f) = (b - a, c - b);
-        if e.perp_dot(f).abs() <= 1e-5 * e.length() * f.length() {
+        // A vertex on the line through its neighbours adds nothing (straight on) or folds
+        // the outline back on itself (a spike of no width).
+        if collinear(a, b, c) {
             return Err(ShapeError(format!(
                 "polygon vertex {} lies on the line through vertices {} and {} (collinear)",
                 (i + 1) % n + 1,
