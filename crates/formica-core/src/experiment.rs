@@ -272,18 +272,14 @@ pub trait LoopFunctions: Send {
     fn finish(&self, _world: &World, _result: &mut RunResult) {}
 }
 
-/// Names of the built-in loop functions, in the order they run: their stop rules are the
+/// Registers the built-in loop functions: `transport`, then `fill`. Their stop rules are the
 /// scenario's `stop` table ([`Scenario::has_success_rule`] reads it instead of them).
-pub const BUILTIN_LOOP_FUNCTIONS: [&str; 2] = ["transport", "fill"];
-
-/// Registers the built-in loop functions ([`BUILTIN_LOOP_FUNCTIONS`]): `transport`, then `fill`.
 pub fn register(registry: &mut Registry) -> Result<(), RegistryError> {
-    let [transport, fill] = BUILTIN_LOOP_FUNCTIONS;
     registry
-        .loop_functions(transport, |sc, world| {
+        .loop_functions("transport", |sc, world| {
             Some(Box::new(TransportHooks::new(sc, world)))
         })?
-        .loop_functions(fill, |sc, world| {
+        .loop_functions("fill", |sc, world| {
             Some(Box::new(crate::metrics::FillHooks::new(sc, world)))
         })?;
     Ok(())
