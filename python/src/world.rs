@@ -63,6 +63,24 @@ fn color_code(c: Color) -> u8 {
         .map_or(u8::MAX, |i| i as u8)
 }
 
+/// The memory of an `out` buffer, if it is laid out row-major (C order), the index order the
+/// readings are written in. (numpy's `as_slice_mut` takes any contiguous array, Fortran order
+/// too.)
+fn row_major<'a, 'py, D: numpy::ndarray::Dimension>(
+    arr: &'a mut numpy::PyReadwriteArray<'py, f32, D>,
+) -> PyResult<&'a mut [f32]> {
+    let wrong = || {
+        PyValueError::new_err(
+            "out: expected a C-contiguous float32 array (row-major, as np.zeros makes it), got \
+             another layout",
+        )
+    };
+    if !arr.as_array().is_standard_layout() {
+        return Err(wrong());
+    }
+    arr.as_slice_mut().map_err(|_| wrong())
+}
+
 /// Most worlds of one `Worlds`.
 const MAX_WORLDS: usize = 10_000;
 
@@ -187,6 +205,27 @@ impl Sim {
         let out = self.run.step();
         self.apply_held();
         out
+    }
+
+    /// [`Sim::ticks`] in chunks, checking for Ctrl-C between them, the GIL released while a
+    /// chunk runs unless Python controllers step (`broken` while a chunk runs, so that a panic
+    /// or a Python exception leaves the world marked spent).
+    fn ticks_interruptibly(&mut self, py: Python<'_>, n: u64) -> PyResult<Option<Outcome>> {
+        let mut left = n;
+        let mut out = self.run.outcome();
+        while left > 0 && out.is_none() {
+            let chunk = left.min(if self.python { 64 } else { 4096 });
+            self.broken = true;
+            out = if self.python {
+                self.ticks(chunk)
+            } else {
+                py.detach(|| self.ticks(chunk))
+            };
+            self.broken = false;
+            left -= chunk;
+            py.check_signals()?;
+        }
+        Ok(out)
     }
 
     fn ticks(&mut self, n: u64) -> Option<Outcome> {
@@ -349,8 +388,9 @@ fn wheels_array(wheels: &Bound<'_, PyAny>, n: usize, who: &str) -> PyResult<Vec<
 /// `robot_poses` `[N, 3]` float32 (x m, y m, theta rad), `leds` `[N]` uint8 (codes into
 /// `formica.COLORS`), `states` (list of N str), `released` / `attached` `[N]` bool,
 /// `wheel_speeds` `[N, 2]` float32 (m/s, what the robots are told to drive with next; the
-/// model caps each wheel at its top speed), `object_poses` `[M, 3]` float32 (x m, y m, theta rad of each object's frame), `object_centers` `[M, 2]`
-/// (centre of mass, m), `readings()` `[N, L]` float32 (see `reading_names()`).
+/// model caps each wheel at its top speed), `object_poses` `[M, 3]` float32 (x m, y m, theta
+/// rad of each object's frame), `object_centers` `[M, 2]` (centre of mass, m), `readings()`
+/// `[N, L]` float32 (see `reading_names()`).
 #[pyclass(module = "formica", name = "World")]
 pub struct PyWorld {
     sim: Mutex<Sim>,
@@ -395,22 +435,7 @@ impl PyWorld {
     fn step(&self, py: Python<'_>, n: u64) -> PyResult<Option<&'static str>> {
         guard(|| {
             let mut g = self.sim()?;
-            let sim = &mut *g;
-            let mut left = n;
-            let mut out = sim.run.outcome();
-            while left > 0 && out.is_none() {
-                let chunk = left.min(if sim.python { 64 } else { 4096 });
-                sim.broken = true;
-                out = if sim.python {
-                    sim.ticks(chunk)
-                } else {
-                    py.detach(|| sim.ticks(chunk))
-                };
-                sim.broken = false;
-                left -= chunk;
-                py.check_signals()?;
-            }
-            Ok(out.map(Outcome::name))
+            Ok(g.ticks_interruptibly(py, n)?.map(Outcome::name))
         })
     }
 
@@ -642,17 +667,7 @@ impl PyWorld {
                         arr.as_array().shape()
                     )));
                 }
-                // `as_slice_mut` takes any contiguous array, Fortran order too, whose memory
-                // order is not the index order the readings are written in.
-                if !arr.as_array().is_standard_layout() {
-                    return Err(PyValueError::new_err(
-                        "out: expected a C-contiguous float32 array (row-major, as np.zeros \
-                         makes it), got another layout",
-                    ));
-                }
-                let slice = arr.as_slice_mut().map_err(|_| {
-                    PyValueError::new_err("out: expected a C-contiguous float32 array")
-                })?;
+                let slice = row_major(&mut arr)?;
                 g.write_readings(&idx, &shape, slice)?;
                 drop(arr);
                 Ok(py.None())
@@ -928,21 +943,7 @@ impl PyWorlds {
             })?;
             let mut sim = Sim::new(&self.scenario, &self.build, Some(seed))
                 .map_err(|e| scenario_error(py, &e))?;
-            // In chunks, the GIL released for each (Python controllers aside), so that Ctrl-C
-            // interrupts it.
-            let mut left = ticks;
-            while left > 0 && sim.run.outcome().is_none() {
-                let chunk = left.min(if self.python { 64 } else { 4096 });
-                sim.broken = true;
-                if self.python {
-                    sim.ticks(chunk);
-                } else {
-                    py.detach(|| sim.ticks(chunk));
-                }
-                sim.broken = false;
-                left -= chunk;
-                py.check_signals()?;
-            }
+            sim.ticks_interruptibly(py, ticks)?;
             let mut g = match m.try_lock() {
                 Ok(g) => g,
                 Err(TryLockError::Poisoned(p)) => p.into_inner(),
@@ -1011,8 +1012,10 @@ impl PyWorlds {
             };
             let mut sims: Vec<&mut Sim> = locks.iter_mut().map(|g| &mut **g).collect();
             let outcomes: Vec<Option<Outcome>> = if self.python {
-                // World after world, on this thread (Python controllers see Ctrl-C).
-                sims.iter_mut().map(|g| run(g, ticks)).collect()
+                // World after world, on this thread.
+                sims.iter_mut()
+                    .map(|g| g.ticks_interruptibly(py, ticks))
+                    .collect::<PyResult<_>>()?
             } else {
                 // In chunks, the GIL released for each, so that Ctrl-C interrupts a long call
                 // (as `World.step`); a world that has ended ticks no more.
@@ -1057,17 +1060,7 @@ impl PyWorlds {
                         arr.as_array().shape()
                     )));
                 }
-                // `as_slice_mut` takes any contiguous array, Fortran order too, whose memory
-                // order is not the index order the readings are written in.
-                if !arr.as_array().is_standard_layout() {
-                    return Err(PyValueError::new_err(
-                        "out: expected a C-contiguous float32 array (row-major, as np.zeros \
-                         makes it), got another layout",
-                    ));
-                }
-                let slice = arr.as_slice_mut().map_err(|_| {
-                    PyValueError::new_err("out: expected a C-contiguous float32 array")
-                })?;
+                let slice = row_major(&mut arr)?;
                 fill(slice)?;
                 Ok(py.None())
             }
