@@ -119,6 +119,16 @@ def _seed_list(seeds, scenario: Scenario) -> list:
     return out
 
 
+def _count(name: str, value, least: int) -> int:
+    """``value`` as a whole number of at least ``least``, or a clear error naming ``name``."""
+    if isinstance(value, bool) or not hasattr(value, "__index__"):
+        raise TypeError(f"{name}: expected a whole number, got {value!r}")
+    value = int(value)
+    if value < least:
+        raise ValueError(f"{name}: expected at least {least}, got {value}")
+    return value
+
+
 def run(
     scenario: Union[Scenario, PathLike],
     seeds: Union[int, Iterable[int], None] = None,
@@ -162,11 +172,11 @@ def sweep(
     if db is not None:
         args += ["--db", os.fspath(db)]
     if threads is not None:
-        args += ["--threads", str(int(threads))]
+        args += ["--threads", str(_count("threads", threads, 1))]
     if shard is not None:
         args += ["--shard", str(shard)]
     if limit is not None:
-        args += ["--limit", str(int(limit))]
+        args += ["--limit", str(_count("limit", limit, 0))]
     if trajectories:
         args.append("--trajectories")
     if not progress:
@@ -259,7 +269,8 @@ def register_controller(name: str, cls: Optional[type] = None, *, needs: Optiona
     attach command (None / ``"keep"``, ``True`` / ``"attach"``, ``False`` / ``"detach"``), and
     ``coast`` (``True``: motors off, the wheel speeds ignored; the wheels roll along the heading
     and skid sideways). A
-    ``state`` attribute, if the instance has one, is its state name. ``needs`` (or a class
+    ``state`` attribute, if the instance has one, is its state name (a process keeps the
+    first 4,096 distinct names; later new ones read ``"other"``). ``needs`` (or a class
     attribute ``needs``) lists the sensors it reads, from ``proximity``, ``light``, ``beacon``
     and ``camera``; default: all but the camera.
 

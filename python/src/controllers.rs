@@ -170,11 +170,7 @@ impl PyRng {
 
     /// A float in [low, high).
     fn uniform(&mut self, low: f64, high: f64) -> PyResult<f64> {
-        if !(low.is_finite() && high.is_finite() && low <= high) {
-            return Err(PyValueError::new_err(format!(
-                "uniform: expected finite low <= high, got {low}, {high}"
-            )));
-        }
+        check_uniform(low, high)?;
         Ok(low + (high - low) * self.inner.random::<f64>())
     }
 
@@ -239,11 +235,7 @@ impl PyRngs {
         low: f64,
         high: f64,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        if !(low.is_finite() && high.is_finite() && low <= high) {
-            return Err(PyValueError::new_err(format!(
-                "uniform: expected finite low <= high, got {low}, {high}"
-            )));
-        }
+        check_uniform(low, high)?;
         let v = self
             .inner
             .iter_mut()
@@ -901,11 +893,13 @@ fn apply_batch(out: &Bound<'_, PyAny>, robots: &mut [BatchRobot<'_>], who: &str)
         }
         Err(_) => (out.clone(), None, None),
     };
-    let wheels: PyArrayLike2<'_, f32, AllowTypeChange> = wheels.extract().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{who}: wheel speeds must be a float array of shape ({n}, 2)"
-        ))
-    })?;
+    let wheels: PyArrayLike2<'_, f32, AllowTypeChange> = numbers(&wheels, who, "wheel speeds")?
+        .extract()
+        .map_err(|_| {
+            PyValueError::new_err(format!(
+                "{who}: wheel speeds must be a float array of shape ({n}, 2)"
+            ))
+        })?;
     let w = wheels.as_array();
     if w.shape() != [n, 2] {
         return Err(PyValueError::new_err(format!(
@@ -938,6 +932,39 @@ fn apply_batch(out: &Bound<'_, PyAny>, robots: &mut [BatchRobot<'_>], who: &str)
     Ok(())
 }
 
+/// `uniform(low, high)`'s bounds: finite, in order, and no farther apart than a float can say.
+fn check_uniform(low: f64, high: f64) -> PyResult<()> {
+    if low.is_finite() && high.is_finite() && low <= high && (high - low).is_finite() {
+        Ok(())
+    } else {
+        Err(PyValueError::new_err(format!(
+            "uniform: expected finite low <= high with a finite high - low, got {low}, {high}"
+        )))
+    }
+}
+
+/// `v` as a numpy array of numbers (bool, integer or float), for the numeric extractions that
+/// follow: numpy would otherwise turn strings such as `"1.5"` into numbers without a word.
+pub(crate) fn numbers<'py>(
+    v: &Bound<'py, PyAny>,
+    who: &str,
+    what: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let arr = v
+        .py()
+        .import("numpy")?
+        .call_method1("asarray", (v,))
+        .map_err(|_| PyValueError::new_err(format!("{who}: {what} must be an array of numbers")))?;
+    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
+    if !matches!(kind.as_str(), "b" | "i" | "u" | "f") {
+        let dtype = arr.getattr("dtype")?.str()?.to_string();
+        return Err(PyValueError::new_err(format!(
+            "{who}: {what} must be numbers, got an array of dtype {dtype}"
+        )));
+    }
+    Ok(arr)
+}
+
 /// One integer code per row.
 pub(crate) fn codes_of(
     v: &Bound<'_, PyAny>,
@@ -947,11 +974,12 @@ pub(crate) fn codes_of(
 ) -> PyResult<Vec<i64>> {
     // Read as float64 and checked, so that 1.7 or NaN is refused rather than cast to 1 or
     // to i64::MIN (as numpy's integer cast would).
-    let arr: PyArrayLike1<'_, f64, AllowTypeChange> = v.extract().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{who}: {what} must be an integer array of shape ({n},)"
-        ))
-    })?;
+    let arr: PyArrayLike1<'_, f64, AllowTypeChange> =
+        numbers(v, who, what)?.extract().map_err(|_| {
+            PyValueError::new_err(format!(
+                "{who}: {what} must be an integer array of shape ({n},)"
+            ))
+        })?;
     let a = arr.as_array();
     if a.len() != n {
         return Err(PyValueError::new_err(format!(

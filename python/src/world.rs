@@ -4,7 +4,9 @@
 //! Every array is one fresh numpy array per call, filled straight from the simulation (no
 //! Python object per robot). Units: metres, radians (counter-clockwise, world frame), seconds.
 
-use crate::controllers::{attach_of_code, check_wheels, codes_of, slots_dict, PyLayout, Shape};
+use crate::controllers::{
+    attach_of_code, check_wheels, codes_of, numbers, slots_dict, PyLayout, Shape,
+};
 use crate::{guard, result_to_py, scenario_error};
 use formica::controller::Actuation;
 use formica::experiment::{Run, RunOptions};
@@ -363,11 +365,13 @@ fn lock<'a>(m: &'a Mutex<Sim>) -> PyResult<MutexGuard<'a, Sim>> {
 }
 
 fn wheels_array(wheels: &Bound<'_, PyAny>, n: usize, who: &str) -> PyResult<Vec<f32>> {
-    let arr: PyArrayLike2<'_, f32, AllowTypeChange> = wheels.extract().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{who}: wheel speeds must be a float array of shape ({n}, 2)"
-        ))
-    })?;
+    let arr: PyArrayLike2<'_, f32, AllowTypeChange> = numbers(wheels, who, "wheel speeds")?
+        .extract()
+        .map_err(|_| {
+            PyValueError::new_err(format!(
+                "{who}: wheel speeds must be a float array of shape ({n}, 2)"
+            ))
+        })?;
     let a = arr.as_array();
     if a.shape() != [n, 2] {
         return Err(PyValueError::new_err(format!(
@@ -970,11 +974,12 @@ impl PyWorlds {
             let mut locks = self.locks()?;
             let (e, n) = (locks.len(), self.n);
             if let Some(w) = wheels.filter(|v| !v.is_none()) {
-                let arr: PyArrayLike3<'_, f32, AllowTypeChange> = w.extract().map_err(|_| {
-                    PyValueError::new_err(format!(
-                        "step: wheel speeds must be a float array of shape ({e}, {n}, 2)"
-                    ))
-                })?;
+                let arr: PyArrayLike3<'_, f32, AllowTypeChange> =
+                    numbers(w, "step", "wheel speeds")?.extract().map_err(|_| {
+                        PyValueError::new_err(format!(
+                            "step: wheel speeds must be a float array of shape ({e}, {n}, 2)"
+                        ))
+                    })?;
                 let a = arr.as_array();
                 if a.shape() != [e, n, 2] {
                     return Err(PyValueError::new_err(format!(

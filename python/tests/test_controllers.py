@@ -178,8 +178,9 @@ def test_the_rng_is_deterministic_per_seed():
     a, b = formica.Rng(3), formica.Rng(3)
     assert [a.random() for _ in range(5)] == [b.random() for _ in range(5)]
     assert 0.0 <= a.uniform(0.0, 1.0) < 1.0 and a.integers(2, 3) == 2
-    with pytest.raises(ValueError):
-        a.uniform(1.0, 0.0)
+    for low, high in ((1.0, 0.0), (-1e308, 1e308)):
+        with pytest.raises(ValueError, match="uniform"):
+            a.uniform(low, high)
     for mean, sd in ((0.0, -1.0), (0.0, float("nan")), (float("inf"), 1.0)):
         with pytest.raises(ValueError, match="sd >= 0"):
             a.normal(mean, sd)
@@ -198,6 +199,9 @@ def test_a_sweep_runs_python_controllers_into_a_store(tmp_path):
     df = formica.sweep(sweep, db=db, threads=1)
     assert len(df) == 4 and set(df["controller"]) == {"py-wander"}
     assert sorted(df["robots"]) == [3, 3, 5, 5]
+    for threads, error in ((-1, ValueError), (2.7, TypeError), (True, TypeError)):
+        with pytest.raises(error, match="threads"):
+            formica.sweep(sweep, db=db, threads=threads)
     # Resumable: a second call runs nothing new and reads the same store.
     again = formica.sweep(sweep, db=db)
     assert again["sim_time_s"].tolist() == df["sim_time_s"].tolist()

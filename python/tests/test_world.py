@@ -222,3 +222,21 @@ def test_led_and_attach_codes_must_be_whole_numbers():
         with pytest.raises(ValueError, match="whole-number codes"):
             w.set_actions(np.zeros((n, 2)), leds=leds, attach=attach)
     w.set_actions(np.zeros((n, 2)), leds=np.full(n, 1.0), attach=np.zeros(n, dtype=np.int8))
+
+
+def test_strings_are_not_taken_for_numbers():
+    w = formica.World(SEED_TRANSPORT, controller="external")
+    n = len(w.leds)
+    with pytest.raises(ValueError, match="wheel speeds must be numbers"):
+        w.set_actions([["0.1", "0.1"]] * n)
+    with pytest.raises(ValueError, match="leds must be numbers"):
+        w.set_actions(np.zeros((n, 2)), leds=["1"] * n)
+    ws = formica.Worlds(SEED_TRANSPORT, seeds=[1, 2], controller="external")
+    with pytest.raises(ValueError, match="wheel speeds must be numbers"):
+        ws.step(np.full((2, n, 2), "0.1"))
+    formica.register_batched("strings", lambda r: np.full((len(r), 2), "0.1"))
+    with pytest.raises(ValueError, match="wheel speeds must be numbers"):
+        formica.World(SEED_TRANSPORT, controller="strings").step(1)
+    # Lists of numbers, booleans and integer arrays still do.
+    w.set_actions([[0.1, 0.1]] * n, leds=np.ones(n, dtype=np.int64))
+    assert np.allclose(w.wheel_speeds, 0.1)
