@@ -256,16 +256,51 @@ impl Sweep {
         flatten_vary("", &spec.vary, &mut vary).map_err(input)?;
         // The grid's order: keys sorted (whatever order the TOML map keeps), values as listed.
         vary.sort_by(|a, b| a.0.cmp(&b.0));
-        for case in &spec.cases {
-            match case.get("label") {
-                None => {}
+        // The `[[cases]]` headers (not those in comments or strings), to point at a case.
+        let case_error = |case: usize, m: String| {
+            let at = text
+                .match_indices("[[cases]]")
+                .filter(|(i, _)| {
+                    text[..*i]
+                        .rsplit('\n')
+                        .next()
+                        .is_some_and(|p| p.trim().is_empty())
+                })
+                .nth(case)
+                .map(|(i, _)| i);
+            match at {
+                Some(i) => {
+                    let (line, col) = line_col(&text, i);
+                    CliError::Input(format!("{file}:{line}:{col}: {m}"))
+                }
+                None => input(m),
+            }
+        };
+        let mut labels = std::collections::BTreeSet::new();
+        for (k, case) in spec.cases.iter().enumerate() {
+            let label = match case.get("label") {
+                None => continue,
                 Some(toml::Value::String(l))
-                    if !l.trim().is_empty() && !l.chars().any(char::is_control) => {}
+                    if !l.trim().is_empty() && !l.chars().any(char::is_control) =>
+                {
+                    l
+                }
                 Some(other) => {
                     return Err(input(format!(
                         "`label`: expected a one-line text naming the case in reports, got {other}"
                     )))
                 }
+            };
+            // Reports name a case by its label: two cases under one name would share a row
+            // label and a plot's bar.
+            if !labels.insert(label.as_str()) {
+                return Err(case_error(
+                    k,
+                    format!(
+                        "this case's label {label:?} names an earlier case too: each label must \
+                         be its own"
+                    ),
+                ));
             }
         }
         let mut cases = spec.cases.clone();
@@ -427,24 +462,7 @@ impl Sweep {
             if !seen.insert(key.clone()) {
                 let m = format!("the parameter set {key} appears twice: every case must differ");
                 // At the case that repeats an earlier one: its `[[cases]]` header.
-                let case = index / per_case.max(1);
-                let at = text
-                    .match_indices("[[cases]]")
-                    .filter(|(i, _)| {
-                        text[..*i]
-                            .rsplit('\n')
-                            .next()
-                            .is_some_and(|p| p.trim().is_empty())
-                    })
-                    .nth(case)
-                    .map(|(i, _)| i);
-                return Err(match at {
-                    Some(i) => {
-                        let (line, col) = line_col(&text, i);
-                        CliError::Input(format!("{file}:{line}:{col}: {m}"))
-                    }
-                    None => input(m),
-                });
+                return Err(case_error(index / per_case.max(1), m));
             }
             sets.push(ParamSet {
                 params,

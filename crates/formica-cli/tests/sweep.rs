@@ -603,9 +603,14 @@ fn a_sweep_that_sets_the_seed_or_the_duration_twice_is_refused_at_the_line() {
             "the value 3 is listed twice",
         ),
         (
-            "seeds = \"1\"\n# [[cases]] in a comment\n[[cases]]\nlabel = \"a\"\n\n  [[cases]]\nlabel = \"a\"\n",
+            "seeds = \"1\"\n# [[cases]] in a comment\n[[cases]]\n\"robots.0.count\" = 3\n\n  [[cases]]\n\"robots.0.count\" = 3\n",
             7,
             "appears twice",
+        ),
+        (
+            "seeds = \"1\"\n[[cases]]\nlabel = \"a\"\n[[cases]]\nlabel = \"b\"\n[[cases]]\nlabel = \"a\"\n\"robots.0.count\" = 3\n",
+            7,
+            "label \"a\" names an earlier case too",
         ),
         (
             "seeds = \"1..2\"\nduration_s = 2000000\n",
