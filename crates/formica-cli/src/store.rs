@@ -213,6 +213,27 @@ impl Store {
             conn,
             known: HashSet::new(),
         };
+        // A trials table without a column every store has (dropped by hand, or a damaged
+        // file) would read as wrong figures or fail at a row with a puzzling message.
+        let have = store.columns()?;
+        let missing: Vec<&str> = HEAD
+            .iter()
+            .copied()
+            .chain(METRICS.iter().map(|(m, _)| *m))
+            .filter(|c| !have.iter().any(|h| h == c))
+            .collect();
+        if !missing.is_empty() {
+            return Err(CliError::Input(format!(
+                "{}: a damaged result store (or one from an older Formica): its trials table lacks {} \
+                 (every store formica sweep writes has them)",
+                path.display(),
+                missing
+                    .iter()
+                    .map(|c| format!("`{c}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
         // Stores made before provenance was recorded get its columns (empty in old rows).
         let want: Vec<String> = PROVENANCE.iter().map(|s| s.to_string()).collect();
         store.ensure_columns(&want)?;

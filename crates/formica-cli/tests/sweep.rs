@@ -692,6 +692,33 @@ fn another_programs_sqlite_file_and_an_empty_file_are_refused_untouched() {
 }
 
 #[test]
+fn a_store_missing_a_metric_column_is_named_damaged() {
+    // With `outcome` dropped, `report` printed 0 % successes; with another column dropped, it
+    // failed at the first row with "Invalid column type Text at index: 17".
+    let dir = tmp("damaged");
+    let file = write_sweep(&dir, "1..1");
+    let db = dir.join("s.db");
+    ok(sweep(&file, &db, &["--limit", "1"]));
+    {
+        let c = rusqlite::Connection::open(&db).unwrap();
+        c.execute_batch("ALTER TABLE trials DROP COLUMN outcome;")
+            .unwrap();
+    }
+    for args in [
+        vec!["report", "s.db", "--out", "r"],
+        vec!["export", "s.db", "--csv", "e.csv"],
+    ] {
+        let out = formica().current_dir(&dir).args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("s.db: a damaged result store") && err.contains("lacks `outcome`"),
+            "{args:?}: {err}"
+        );
+    }
+}
+
+#[test]
 fn outputs_never_overwrite_the_store_or_sweep_file_being_read() {
     let dir = tmp("no-overwrite");
     let file = write_sweep(&dir, "1..1");
