@@ -19,6 +19,7 @@ use pyo3::exceptions::{PyIndexError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 
 /// Every colour, in code order: the LED codes of `World.leds` index this list.
@@ -346,22 +347,98 @@ impl Sim {
     }
 }
 
-fn lock<'a>(m: &'a Mutex<Sim>) -> PyResult<MutexGuard<'a, Sim>> {
-    let g = match m.try_lock() {
-        Ok(g) => g,
-        Err(TryLockError::Poisoned(p)) => p.into_inner(),
-        Err(TryLockError::WouldBlock) => {
-            return Err(PyRuntimeError::new_err(
-                "this World is in use (by another thread, or by a controller stepping it)",
-            ))
-        }
-    };
-    if g.broken {
-        return Err(PyRuntimeError::new_err(
-            "this World stopped half-way through a tick at an earlier error; build a new one",
-        ));
+/// A simulation shared with Python threads: one at a time. A thread that finds it in use by
+/// another waits (with the GIL released, Ctrl-C still seen); a controller that reaches back
+/// into the world stepping it gets an error instead of a deadlock.
+pub(crate) struct SimCell {
+    sim: Mutex<Sim>,
+    /// The [`thread_number`] of the thread holding `sim`, 0 when none does.
+    holder: AtomicU64,
+}
+
+/// A locked [`SimCell`].
+pub(crate) struct Held<'a> {
+    guard: MutexGuard<'a, Sim>,
+    holder: &'a AtomicU64,
+}
+
+impl Drop for Held<'_> {
+    fn drop(&mut self) {
+        // Before the guard (a field) unlocks: while `sim` is locked, `holder` is 0 or the
+        // holder's number, never a former holder's.
+        self.holder.store(0, Ordering::SeqCst);
     }
-    Ok(g)
+}
+
+impl std::ops::Deref for Held<'_> {
+    type Target = Sim;
+    fn deref(&self) -> &Sim {
+        &self.guard
+    }
+}
+
+impl std::ops::DerefMut for Held<'_> {
+    fn deref_mut(&mut self) -> &mut Sim {
+        &mut self.guard
+    }
+}
+
+/// This thread's number (from 1), to tell the thread holding a [`SimCell`] from the others.
+fn thread_number() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    thread_local!(static ME: u64 = NEXT.fetch_add(1, Ordering::Relaxed));
+    ME.with(|m| *m)
+}
+
+impl SimCell {
+    fn new(sim: Sim) -> Self {
+        SimCell {
+            sim: Mutex::new(sim),
+            holder: AtomicU64::new(0),
+        }
+    }
+
+    /// Locks it, waiting while another thread holds it, even if it `broken`.
+    fn lock_any(&self) -> PyResult<Held<'_>> {
+        let me = thread_number();
+        let guard = loop {
+            match self.sim.try_lock() {
+                Ok(g) => break g,
+                Err(TryLockError::Poisoned(p)) => break p.into_inner(),
+                Err(TryLockError::WouldBlock) => {
+                    if self.holder.load(Ordering::SeqCst) == me {
+                        return Err(PyRuntimeError::new_err(
+                            "this World is being stepped by this very thread (a controller \
+                             reaching back into the World that runs it); a controller reads \
+                             what it needs from its readings",
+                        ));
+                    }
+                    Python::attach(|py| {
+                        py.check_signals()?;
+                        py.detach(|| std::thread::sleep(std::time::Duration::from_micros(200)));
+                        PyResult::Ok(())
+                    })?;
+                }
+            }
+        };
+        self.holder.store(me, Ordering::SeqCst);
+        Ok(Held {
+            guard,
+            holder: &self.holder,
+        })
+    }
+
+    /// Locks it (waiting while another thread holds it); a world `broken` by an earlier error
+    /// is refused.
+    fn lock(&self) -> PyResult<Held<'_>> {
+        let g = self.lock_any()?;
+        if g.broken {
+            return Err(PyRuntimeError::new_err(
+                "this World stopped half-way through a tick at an earlier error; build a new one",
+            ));
+        }
+        Ok(g)
+    }
 }
 
 fn wheels_array(wheels: &Bound<'_, PyAny>, n: usize, who: &str) -> PyResult<Vec<f32>> {
@@ -386,7 +463,8 @@ fn wheels_array(wheels: &Bound<'_, PyAny>, n: usize, who: &str) -> PyResult<Vec<
 ///
 /// `World(scenario, seed=None, duration=None, controller=None, record=False)`: `scenario` is a
 /// `formica.Scenario` or a path; `seed` defaults to the file's `run.seed`; `controller`
-/// replaces every group's controller (e.g. `"external"`, driven by `set_actions`).
+/// replaces every group's controller (e.g. `"external"`, driven by `set_actions`). Any thread
+/// may use it: a call waits while another thread steps it.
 ///
 /// Arrays (fresh numpy arrays each call; N robots, M objects, L readings per robot):
 /// `robot_poses` `[N, 3]` float32 (x m, y m, theta rad), `leds` `[N]` uint8 (codes into
@@ -397,12 +475,12 @@ fn wheels_array(wheels: &Bound<'_, PyAny>, n: usize, who: &str) -> PyResult<Vec<
 /// `[N, L]` float32 (see `reading_names()`).
 #[pyclass(module = "formica", name = "World")]
 pub struct PyWorld {
-    sim: Mutex<Sim>,
+    sim: SimCell,
 }
 
 impl PyWorld {
-    fn sim(&self) -> PyResult<MutexGuard<'_, Sim>> {
-        lock(&self.sim)
+    fn sim(&self) -> PyResult<Held<'_>> {
+        self.sim.lock()
     }
 }
 
@@ -428,7 +506,7 @@ impl PyWorld {
             b.check(&sc)?;
             let sim = Sim::new(&sc, &b, seed).map_err(|e| scenario_error(py, &e))?;
             Ok(PyWorld {
-                sim: Mutex::new(sim),
+                sim: SimCell::new(sim),
             })
         })
     }
@@ -849,7 +927,7 @@ impl PyWorld {
 /// 2 wall, 3 timeout).
 #[pyclass(module = "formica", name = "Worlds")]
 pub struct PyWorlds {
-    sims: Vec<Mutex<Sim>>,
+    sims: Vec<SimCell>,
     scenario: Scenario,
     build: Build,
     python: bool,
@@ -857,8 +935,8 @@ pub struct PyWorlds {
 }
 
 impl PyWorlds {
-    fn locks(&self) -> PyResult<Vec<MutexGuard<'_, Sim>>> {
-        self.sims.iter().map(lock).collect()
+    fn locks(&self) -> PyResult<Vec<Held<'_>>> {
+        self.sims.iter().map(SimCell::lock).collect()
     }
 }
 
@@ -911,7 +989,7 @@ impl PyWorlds {
                 .map_err(|e| scenario_error(py, &e))?;
             let n = sims[0].n();
             Ok(PyWorlds {
-                sims: sims.into_iter().map(Mutex::new).collect(),
+                sims: sims.into_iter().map(SimCell::new).collect(),
                 scenario: sc,
                 build,
                 python,
@@ -948,13 +1026,8 @@ impl PyWorlds {
             let mut sim = Sim::new(&self.scenario, &self.build, Some(seed))
                 .map_err(|e| scenario_error(py, &e))?;
             sim.ticks_interruptibly(py, ticks)?;
-            let mut g = match m.try_lock() {
-                Ok(g) => g,
-                Err(TryLockError::Poisoned(p)) => p.into_inner(),
-                Err(TryLockError::WouldBlock) => {
-                    return Err(PyRuntimeError::new_err("these Worlds are in use"))
-                }
-            };
+            // A broken world is what a reset replaces.
+            let mut g = m.lock_any()?;
             *g = sim;
             Ok(())
         })
@@ -1156,7 +1229,7 @@ impl PyWorlds {
         let m = self.sims.get(index).ok_or_else(|| {
             PyIndexError::new_err(format!("world {index}: there are {}", self.sims.len()))
         })?;
-        let g = lock(m)?;
+        let g = m.lock()?;
         result_to_py(py, &g.run.result(), &g.provenance)
     }
 }

@@ -1,6 +1,7 @@
 """formica.World: numpy arrays with the documented shapes, dtypes and units."""
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -240,3 +241,39 @@ def test_strings_are_not_taken_for_numbers():
     # Lists of numbers, booleans and integer arrays still do.
     w.set_actions([[0.1, 0.1]] * n, leds=np.ones(n, dtype=np.int64))
     assert np.allclose(w.wheel_speeds, 0.1)
+
+
+def test_another_thread_waits_for_a_step_and_a_controller_may_not_reach_back():
+    import threading
+
+    w = formica.World(SEED_TRANSPORT, duration=100000, controller="random-walk")
+    ready, seen, errors = threading.Event(), [], []
+
+    def reader():
+        ready.set()
+        time.sleep(0.1)
+        try:
+            w.robot_poses
+            seen.append(w.tick)
+        except Exception as e:  # it used to be "this World is in use"
+            errors.append(e)
+
+    th = threading.Thread(target=reader)
+    th.start()
+    ready.wait()
+    w.step(20000)
+    th.join()
+    assert errors == [] and seen == [20000]
+
+    class Reach:
+        def __init__(self, layout, **params):
+            pass
+
+        def step(self, readings):
+            other.robot_poses
+            return (0.0, 0.0)
+
+    formica.register_controller("reach-back", Reach)
+    other = formica.World(SEED_TRANSPORT, controller="reach-back")
+    with pytest.raises(RuntimeError, match="being stepped by this very thread"):
+        other.step(1)
