@@ -95,6 +95,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
             grp.model_name, grp.controller, needs.proximity, needs.light, needs.beacon, needs.camera,
             needs.scan, grp.sensors.preset.name()
         );
+        if !grp.wheels.is_exact() {
+            outln!(
+                "    wheels: each turns at its command x (1 + b) x (1 + e), b fixed per wheel \
+                 (spread {}), e drawn every tick (spread {})",
+                grp.wheels.bias,
+                grp.wheels.noise
+            );
+        }
         if let Some((p, true)) = occlusion_params(&sc, w, g) {
             if p.perception == occlusion::Perception::Beacon
                 && p.object_reach > occlusion::Params::default().object_reach

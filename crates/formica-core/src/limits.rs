@@ -43,6 +43,8 @@ pub const MAX_FLOOR_MU: f32 = 100.0;
 pub const MAX_INTENSITY: f32 = 1.0e4;
 /// Largest noise spread (relative spreads are fractions of the reading; angles in rad).
 pub const MAX_SPREAD: f32 = 10.0;
+/// Largest relative spread of wheel speeds (`wheels.noise`, `wheels.bias`).
+pub const MAX_WHEEL_SPREAD: f32 = 0.5;
 /// Largest sensor range: camera, colour scan and the scan's range step (m).
 pub const MAX_RANGE_M: f32 = 100.0;
 /// Control ticks per second.
@@ -403,6 +405,12 @@ pub(crate) fn check(sc: &Scenario) -> Result<(), ScenarioError> {
             }
         }
         c.sensors(&gr.sensors, &p("sensors"))?;
+        c.real(gr.wheels.noise, 0.0, MAX_WHEEL_SPREAD, "", || {
+            p("wheels.noise")
+        })?;
+        c.real(gr.wheels.bias, 0.0, MAX_WHEEL_SPREAD, "", || {
+            p("wheels.bias")
+        })?;
         let r = &gr.release;
         c.real(r.interval_s, 0.0, MAX_DURATION_S, "s", || {
             p("release.interval_s")

@@ -901,8 +901,8 @@ impl Physics {
         (lin / h, ang / h)
     }
 
-    /// Sets a robot's wheel speeds `left`, `right` (m/s), clamped to the model's maximum, for
-    /// the next step: the body is pulled toward the differential-drive velocity (forward, no
+    /// Sets a robot's wheel speeds `left`, `right` (m/s), as given (the world caps commands at
+    /// the model's top speed and adds wheel errors, which may exceed it), for the next step: the body is pulled toward the differential-drive velocity (forward, no
     /// sideways slip, turn rate) with at most the model's drive force, in any direction, and its
     /// drive torque. An `attached` robot keeps its wheels on the floor: commanding zero, it
     /// brakes, with up to its drive force and [`RobotModel::brake_torque`].
@@ -930,8 +930,7 @@ impl Physics {
             return;
         }
         let fj = self.drives[k as usize];
-        let l = left.clamp(-model.max_speed, model.max_speed);
-        let r = right.clamp(-model.max_speed, model.max_speed);
+        let (l, r) = (left, right);
         let (v, w) = ((l + r) / 2.0, (r - l) / model.wheel_distance);
         let h = self.dt();
         // Touching: a contact this step can close (the robot and what it meets both moving).

@@ -400,6 +400,31 @@ pub enum Placement {
     Poses(Vec<[f32; 3]>),
 }
 
+/// Wheel speed errors of a robot group: a wheel told to turn at `v` (after the model's speed
+/// cap) turns at `v (1 + b) (1 + noise e)`, with `b` drawn once per wheel and robot from a
+/// normal of spread `bias` (wheel diameter, motor calibration) and `e` a standard normal drawn
+/// afresh every tick (slip, motor control). Off by default: no preset sets them.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct WheelOptions {
+    /// Relative spread of each wheel's speed, drawn every tick. Default 0.
+    #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_WHEEL_SPREAD)))]
+    pub noise: f32,
+    /// Relative spread of each wheel's fixed speed factor, drawn once per robot. Default 0.
+    #[serde(default)]
+    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_WHEEL_SPREAD)))]
+    pub bias: f32,
+}
+
+impl WheelOptions {
+    /// Whether every wheel turns exactly as commanded (both spreads zero).
+    pub fn is_exact(&self) -> bool {
+        self.noise == 0.0 && self.bias == 0.0
+    }
+}
+
 /// When robots enter the arena.
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -659,6 +684,9 @@ pub struct RobotGroup {
     /// Sensor noise and ranges (default: the `"realistic"` noise preset).
     #[serde(default)]
     pub sensors: SensorOptions,
+    /// Wheel speed errors (default: none, every wheel turns as commanded).
+    #[serde(default, skip_serializing_if = "WheelOptions::is_exact")]
+    pub wheels: WheelOptions,
 }
 
 fn default_model() -> Spanned<String> {

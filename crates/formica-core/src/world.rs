@@ -9,7 +9,7 @@ use crate::parallel;
 use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
 use crate::scenario::{
-    steps_for, Color, Placement, Scenario, ScenarioError, SensorConfig, Substeps,
+    steps_for, Color, Placement, Scenario, ScenarioError, SensorConfig, Substeps, WheelOptions,
 };
 use crate::sensors::{
     sense, Beacons, Light, Readings, Scratch, SenseContext, SensorLayout, SensorNeeds, Shadows,
@@ -91,6 +91,8 @@ pub struct Group {
     pub layout: SensorLayout,
     /// Sensor settings (the noise preset with the file's overrides).
     pub sensors: SensorConfig,
+    /// Wheel speed errors.
+    pub wheels: WheelOptions,
     /// Controller name.
     pub controller: String,
     factory: ControllerFactory,
@@ -153,6 +155,21 @@ pub struct Robot {
     controller: Box<dyn Controller>,
     rng: RobotRng,
     sense_rng: RobotRng,
+    /// Draws of its wheel errors (its own stream: they move no other draw).
+    motor_rng: RobotRng,
+    /// Each wheel's fixed speed factor (`wheels.bias`; 1 without).
+    wheel_factor: [f32; 2],
+    /// Left and right wheel speeds (m/s) it turns at this tick: its command, capped at the
+    /// model's top speed, with its wheel errors.
+    wheels: [f32; 2],
+}
+
+impl Robot {
+    /// Left and right wheel speeds (m/s) it turns at this tick: its last command, capped at
+    /// the model's top speed, with its group's wheel errors (`wheels`).
+    pub fn wheel_speeds(&self) -> [f32; 2] {
+        self.wheels
+    }
 }
 
 /// Options that override what a scenario file says.
@@ -261,6 +278,11 @@ fn splitmix(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
+}
+
+/// A wheel's fixed speed factor: `1 + bias z`, `z` standard normal, never below 0.
+fn wheel_factor(bias: f32, rng: &mut RobotRng) -> f32 {
+    (1.0 + bias * crate::ops::standard_normal(rng)).max(0.0)
 }
 
 /// A portable generator for stream `kind`, member `index`, of run `seed`.
@@ -432,6 +454,12 @@ impl World {
             )?;
             for (k, pose) in poses.into_iter().enumerate() {
                 let idx = robots.len();
+                let mut motor_rng = rng_stream(seed, 3, idx as u64);
+                let wheel_factor = if grp.wheels.bias > 0.0 {
+                    [(); 2].map(|()| wheel_factor(grp.wheels.bias, &mut motor_rng))
+                } else {
+                    [1.0; 2]
+                };
                 robots.push(Robot {
                     group: g,
                     body: None,
@@ -446,6 +474,9 @@ impl World {
                     controller: factory.make(),
                     rng: rng_stream(seed, 1, idx as u64),
                     sense_rng: rng_stream(seed, 2, idx as u64),
+                    motor_rng,
+                    wheel_factor,
+                    wheels: [0.0; 2],
                 });
             }
             groups.push(Group {
@@ -453,6 +484,7 @@ impl World {
                 model_name,
                 layout,
                 sensors,
+                wheels: grp.wheels,
                 controller: name,
                 batch: factory.make_batch(),
                 factory,
@@ -568,11 +600,7 @@ impl World {
             .filter(|r| r.body.is_some())
             .map(|r| {
                 // A disc turning about its centre sweeps nothing: its centre's speed counts.
-                let top = self.groups[r.group].model.max_speed;
-                let (l, rt) = (
-                    r.action.left.clamp(-top, top),
-                    r.action.right.clamp(-top, top),
-                );
+                let [l, rt] = r.wheels;
                 (0.5 * (l + rt)).abs()
             })
             .fold(0.0, f32::max);
@@ -608,8 +636,8 @@ impl World {
                 self.physics.drive(
                     body,
                     model,
-                    r.action.left,
-                    r.action.right,
+                    r.wheels[0],
+                    r.wheels[1],
                     r.attached.is_some(),
                     r.action.coast,
                 );
@@ -618,13 +646,25 @@ impl World {
         self.physics.step_on(self.pool.as_deref());
     }
 
-    /// Applies last tick's decisions that are not wheel speeds: LEDs and attach/detach.
+    /// Applies last tick's decisions: the wheel speeds each robot turns at this tick (its
+    /// command, capped, with its wheel errors), LEDs and attach/detach.
     fn act(&mut self) {
         for i in 0..self.robots.len() {
             let Some(body) = self.robots[i].body else {
                 continue;
             };
             let action = self.robots[i].action;
+            let r = &mut self.robots[i];
+            let grp = &self.groups[r.group];
+            let top = grp.model.max_speed;
+            let mut wheels = [action.left, action.right];
+            for (k, v) in wheels.iter_mut().enumerate() {
+                *v = v.clamp(-top, top) * r.wheel_factor[k];
+                if grp.wheels.noise > 0.0 && !action.coast {
+                    *v *= 1.0 + grp.wheels.noise * crate::ops::standard_normal(&mut r.motor_rng);
+                }
+            }
+            r.wheels = wheels;
             self.robots[i].led = action.led;
             match action.attach {
                 AttachCommand::Keep => {}
