@@ -470,7 +470,7 @@ fn wheels_array(wheels: &Bound<'_, PyAny>, n: usize, who: &str) -> PyResult<Vec<
 /// `robot_poses` `[N, 3]` float32 (x m, y m, theta rad), `leds` `[N]` uint8 (codes into
 /// `formica.COLORS`), `states` (list of N str), `released` / `attached` `[N]` bool,
 /// `wheel_speeds` `[N, 2]` float32 (m/s, what the robots are told to drive with next; the
-/// model caps each wheel at its top speed), `object_poses` `[M, 3]` float32 (x m, y m, theta
+/// model caps each wheel at its top speed, and `wheels` errors apply after), `object_poses` `[M, 3]` float32 (x m, y m, theta
 /// rad of each object's frame), `object_centers` `[M, 2]` (centre of mass, m), `readings()`
 /// `[N, L]` float32 (see `reading_names()`).
 #[pyclass(module = "formica", name = "World")]
