@@ -81,3 +81,11 @@ pub fn seed_box(x: f32, y: f32) -> String {
         "[[objects]]\nat = [{x}, {y}]\nshape = {{ box = [0.5, 0.5] }}\nmass = 50.0\nheight = 0.5\nfloor_mu = 0.006\n"
     )
 }
+
+/// Mean and standard deviation of `xs`.
+pub fn moments(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
+    (mean, var.sqrt())
+}

@@ -137,14 +137,6 @@ fn a_hidden_light_reads_the_ambient_level_not_zero() {
     assert!(formica::controllers::occlusion::light_contrast(l) < 0.06);
 }
 
-/// Mean and standard deviation of `xs`.
-fn moments(xs: &[f64]) -> (f64, f64) {
-    let n = xs.len() as f64;
-    let mean = xs.iter().sum::<f64>() / n;
-    let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
-    (mean, var.sqrt())
-}
-
 #[test]
 fn noise_on_each_sensor_has_the_preset_mean_and_spread() {
     // Ten still robots in a row 3 cm (body to wall) below the north wall, facing east: the
@@ -221,13 +213,13 @@ fn noise_on_each_sensor_has_the_preset_mean_and_spread() {
     // Proximity: multiplicative plus floor, around the exact reading.
     within(
         "proximity",
-        moments(&prox),
+        common::moments(&prox),
         0.0,
         rel(nz.proximity_noise, nz.proximity_floor, v),
     );
-    within("light (normalised)", moments(&lum), 0.0, 1.0);
-    within("position", moments(&dx), 0.0, f(nz.position_noise));
-    within("heading", moments(&dth), 0.0, f(nz.heading_noise));
+    within("light (normalised)", common::moments(&lum), 0.0, 1.0);
+    within("position", common::moments(&dx), 0.0, f(nz.position_noise));
+    within("heading", common::moments(&dth), 0.0, f(nz.heading_noise));
 }
 
 #[test]
@@ -409,7 +401,7 @@ fn the_beacon_has_a_range_and_noise() {
         let b = near.unwrap_or_else(|| panic!("no beacon within range"));
         xs.push(f64::from(b.x - c.x));
     }
-    let (mean, sd) = moments(&xs);
+    let (mean, sd) = common::moments(&xs);
     assert!(
         mean.abs() < 0.002 && (sd - 0.02).abs() < 0.002,
         "{mean} {sd}"

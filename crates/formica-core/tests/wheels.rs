@@ -23,13 +23,6 @@ fn world(n: usize, left: f32, right: f32, wheels: &str, seed: u64) -> World {
     .unwrap()
 }
 
-fn mean_sd(xs: &[f64]) -> (f64, f64) {
-    let n = xs.len() as f64;
-    let mean = xs.iter().sum::<f64>() / n;
-    let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
-    (mean, var.sqrt())
-}
-
 #[test]
 fn without_wheel_errors_robots_turn_their_wheels_as_commanded_capped() {
     let mut w = world(3, 0.05, 9.0, "", 1);
@@ -54,7 +47,7 @@ fn each_wheel_has_a_fixed_factor_with_the_bias_spread() {
         .flatten()
         .map(|v| f64::from(*v) / 0.1 - 1.0)
         .collect();
-    let (mean, sd) = mean_sd(&f);
+    let (mean, sd) = common::moments(&f);
     assert!(mean.abs() < 0.005, "mean factor - 1 = {mean}");
     assert!((sd / 0.05 - 1.0).abs() < 0.05, "spread {sd}");
     w.step();
@@ -77,7 +70,7 @@ fn wheel_noise_is_drawn_every_tick_with_its_spread() {
         let s = w.robots[0].wheel_speeds();
         f.extend(s.iter().map(|v| f64::from(*v) / 0.05 - 1.0));
     }
-    let (mean, sd) = mean_sd(&f);
+    let (mean, sd) = common::moments(&f);
     assert!(mean.abs() < 0.001, "mean {mean}");
     assert!((sd / 0.05 - 1.0).abs() < 0.05, "spread {sd}");
 }
