@@ -28,7 +28,7 @@ use formica::{Outcome, RunResult};
 use rusqlite::types::Value as SqlValue;
 use rusqlite::{params, Connection, OptionalExtension};
 use std::collections::{BTreeMap, HashSet};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The metric columns, in order, with their SQL types.
 pub const METRICS: &[(&str, &str)] = &[
@@ -77,6 +77,8 @@ pub fn ident(name: &str) -> String {
 pub struct Store {
     /// The connection.
     pub conn: Connection,
+    /// The file (for messages).
+    path: PathBuf,
     /// Columns of `trials` known to exist (end-of-run fields are added as they come).
     known: HashSet<String>,
 }
@@ -211,6 +213,7 @@ impl Store {
         .with_context(|| format!("creating the tables of {}", path.display()))?;
         let mut store = Store {
             conn,
+            path: path.to_path_buf(),
             known: HashSet::new(),
         };
         // A trials table without a column every store has (dropped by hand, or a damaged
@@ -292,13 +295,17 @@ impl Store {
         allow_mixed: bool,
     ) -> Result<(), CliError> {
         let me = Writer::this();
-        let mut writers: Vec<Writer> = match self.meta("writers")? {
-            Some(w) => serde_json::from_str(&w).unwrap_or_default(),
-            None => Vec::new(),
+        let mut writers = self.writers()?;
+        let theirs: Option<u32> = match self.meta("results_format")? {
+            None => None,
+            Some(f) => Some(f.trim().parse().map_err(|_| {
+                CliError::Input(format!(
+                    "{}: a damaged result store: its meta value `results_format` is {f:?}, not \
+                     a whole number",
+                    path.display()
+                ))
+            })?),
         };
-        let theirs: Option<u32> = self
-            .meta("results_format")?
-            .and_then(|f| f.trim().parse().ok());
         if self.count()? > 0 && theirs != Some(me.results_format) && !allow_mixed {
             let who = if writers.is_empty() {
                 "a Formica that recorded no results format (older than provenance)".to_string()
@@ -348,10 +355,7 @@ impl Store {
                 self.set_meta("sweep", &sweep.file.display().to_string())?;
             }
         }
-        let mut keys: Vec<String> = match self.meta("keys")? {
-            Some(k) => serde_json::from_str(&k).unwrap_or_default(),
-            None => Vec::new(),
-        };
+        let mut keys = self.keys()?;
         for k in &sweep.keys {
             if !keys.contains(k) {
                 keys.push(k.clone());
@@ -724,18 +728,28 @@ impl Store {
 
     /// The builds that wrote into the store (`meta` key `writers`).
     pub fn writers(&self) -> Result<Vec<Writer>, CliError> {
-        Ok(match self.meta("writers")? {
-            Some(w) => serde_json::from_str(&w).context("decoding meta writers")?,
-            None => Vec::new(),
-        })
+        self.meta_list("writers")
     }
 
     /// The varied keys recorded in the store.
     pub fn keys(&self) -> Result<Vec<String>, CliError> {
-        Ok(match self.meta("keys")? {
-            Some(k) => serde_json::from_str(&k).context("decoding meta keys")?,
-            None => Vec::new(),
-        })
+        self.meta_list("keys")
+    }
+
+    /// A meta value that holds a JSON list (none recorded: empty). A value that does not
+    /// decode (edited by hand, or a damaged file) is refused, naming the store and the key,
+    /// rather than read as empty and written over.
+    fn meta_list<T: serde::de::DeserializeOwned>(&self, key: &str) -> Result<Vec<T>, CliError> {
+        match self.meta(key)? {
+            None => Ok(Vec::new()),
+            Some(v) => serde_json::from_str(&v).map_err(|e| {
+                CliError::Input(format!(
+                    "{}: a damaged result store: its meta value `{key}` is not the JSON list \
+                     formica sweep writes ({e})",
+                    self.path.display()
+                ))
+            }),
+        }
     }
 }
 

@@ -719,6 +719,54 @@ fn a_store_missing_a_metric_column_is_named_damaged() {
 }
 
 #[test]
+fn a_store_with_a_damaged_meta_value_is_named_and_left_as_it_was() {
+    // A `writers` or `keys` list that did not decode was read as empty on resume and written
+    // over (the store's record of which builds wrote it lost); `report` said only "decoding
+    // meta writers".
+    for (key, value, says) in [
+        (
+            "writers",
+            "not json",
+            "its meta value `writers` is not the JSON list",
+        ),
+        (
+            "keys",
+            "{\"a\": 1}",
+            "its meta value `keys` is not the JSON list",
+        ),
+        ("results_format", "twenty", "`results_format` is \"twenty\""),
+    ] {
+        let dir = tmp(&format!("damaged-meta-{key}"));
+        let file = write_sweep(&dir, "1..1");
+        let db = dir.join("s.db");
+        ok(sweep(&file, &db, &["--limit", "1"]));
+        {
+            let c = rusqlite::Connection::open(&db).unwrap();
+            c.execute("UPDATE meta SET value = ?1 WHERE key = ?2", [value, key])
+                .unwrap();
+        }
+        let mut runs = vec![vec!["sweep", "sweep.toml", "--db", "s.db", "--limit", "2"]];
+        if key != "results_format" {
+            runs.push(vec!["report", "s.db", "--out", "r"]);
+        }
+        for args in runs {
+            let out = formica().current_dir(&dir).args(&args).output().unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{key} {args:?}: {err}");
+            assert!(
+                err.contains("s.db: a damaged result store") && err.contains(says),
+                "{key} {args:?}: {err}"
+            );
+        }
+        let c = rusqlite::Connection::open(&db).unwrap();
+        let kept: String = c
+            .query_row("SELECT value FROM meta WHERE key = ?1", [key], |r| r.get(0))
+            .unwrap();
+        assert_eq!(kept, value, "{key}");
+    }
+}
+
+#[test]
 fn outputs_never_overwrite_the_store_or_sweep_file_being_read() {
     let dir = tmp("no-overwrite");
     let file = write_sweep(&dir, "1..1");
