@@ -409,24 +409,38 @@ pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
         hi = hi.max(p);
     }
     let r = f64::from(((hi - lo).x.min((hi - lo).y) / 2.0).max(0.0));
-    let obstacles: Vec<Vec<[f64; 2]>> = world.walls[4..]
-        .iter()
-        .map(|w| {
-            let (s, c) = crate::ops::sin_cos(w.yaw);
-            let (s, c) = (f64::from(s), f64::from(c));
-            let hx = f64::from(w.size.x) / 2.0 + r;
-            let hy = f64::from(w.size.y) / 2.0 + r;
-            [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)]
-                .iter()
-                .map(|(x, y)| {
-                    [
-                        f64::from(w.center.x) + c * x - s * y,
-                        f64::from(w.center.y) + s * x + c * y,
-                    ]
-                })
-                .collect()
-        })
-        .collect();
+    let mut obstacles: Vec<Vec<[f64; 2]>> = Vec::new();
+    for w in &world.walls[4..] {
+        let (s, c) = crate::ops::sin_cos(w.yaw);
+        let (s, c) = (f64::from(s), f64::from(c));
+        let place = |[x, y]: [f64; 2]| {
+            [
+                f64::from(w.center.x) + c * x - s * y,
+                f64::from(w.center.y) + s * x + c * y,
+            ]
+        };
+        match &w.shape {
+            None => {
+                let hx = f64::from(w.size.x) / 2.0 + r;
+                let hy = f64::from(w.size.y) / 2.0 + r;
+                obstacles.push(
+                    [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]]
+                        .into_iter()
+                        .map(place)
+                        .collect(),
+                );
+            }
+            Some(part) => {
+                for piece in crate::geometry::convex_pieces(part, 16) {
+                    let pts: Vec<[f64; 2]> = piece
+                        .iter()
+                        .map(|p| [f64::from(p.x), f64::from(p.y)])
+                        .collect();
+                    obstacles.push(grown(&pts, r).into_iter().map(place).collect());
+                }
+            }
+        }
+    }
     let (c, size) = world.arena;
     // The arena walls are centred on the border: the floor ends half a thickness inside it.
     let inset = f64::from(world.walls[0].size.x) / 2.0 + r;
@@ -440,6 +454,27 @@ pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
     );
     let p = |v: Vec2| [f64::from(v.x), f64::from(v.y)];
     crate::visibility::shortest_path(p(from), p(to), &obstacles, bounds)
+}
+
+/// The counter-clockwise convex polygon `pts` grown by `r`: each edge moved out by `r`, the
+/// corners where the moved edges meet (so that it holds every point within `r` of `pts`; a
+/// corner sharper than about 11 degrees is cut off at 10 r).
+fn grown(pts: &[[f64; 2]], r: f64) -> Vec<[f64; 2]> {
+    let n = pts.len();
+    let normal = |a: [f64; 2], b: [f64; 2]| {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len = (dx * dx + dy * dy).sqrt().max(1e-12);
+        [dy / len, -dx / len]
+    };
+    (0..n)
+        .map(|i| {
+            let p = pts[i];
+            let n1 = normal(pts[(i + n - 1) % n], p);
+            let n2 = normal(p, pts[(i + 1) % n]);
+            let k = r / (1.0 + n1[0] * n2[0] + n1[1] * n2[1]).max(0.02);
+            [p[0] + k * (n1[0] + n2[0]), p[1] + k * (n1[1] + n2[1])]
+        })
+        .collect()
 }
 
 /// Options of one run.

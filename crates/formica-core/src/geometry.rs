@@ -294,6 +294,46 @@ pub fn part_outlines(parts: &[Part], disc_segments: usize) -> Vec<Vec<Vec2>> {
         .collect()
 }
 
+/// Convex pieces covering a part, counter-clockwise, in the common frame: a convex primitive
+/// is one piece, a concave polygon the convex pieces of the collision engine's decomposition,
+/// and a disc the regular polygon of `disc_segments` sides drawn round it (so that the pieces
+/// contain the part). Empty for a part that is not well formed.
+pub fn convex_pieces(part: &Part, disc_segments: usize) -> Vec<Vec<Vec2>> {
+    let pose = Pose::new(part.at[0], part.at[1], part.yaw_deg.to_radians());
+    let place = |pts: Vec<Vec2>| -> Vec<Vec2> {
+        pts.into_iter().map(|v| pose.world_from_local(v)).collect()
+    };
+    match &part.shape {
+        Primitive::Disc(r) => {
+            let n = disc_segments.max(3);
+            let out = r / ops::cos(std::f32::consts::PI / n as f32);
+            vec![place(regular_outline(n, out))]
+        }
+        Primitive::Polygon(_) => {
+            let Ok(shape) = part.shape.shared_shape() else {
+                return Vec::new();
+            };
+            match shape.as_compound() {
+                Some(c) => c
+                    .shapes()
+                    .iter()
+                    .filter_map(|(sub_pose, sub)| {
+                        let poly = sub.as_convex_polygon()?;
+                        Some(place(
+                            poly.points()
+                                .iter()
+                                .map(|p| sub_pose.transform_point(*p))
+                                .collect(),
+                        ))
+                    })
+                    .collect(),
+                None => vec![place(part.shape.outline(0))],
+            }
+        }
+        other => vec![place(other.outline(0))],
+    }
+}
+
 /// The parts of an object grouped into pieces that hold together: two parts belong to one
 /// piece when they touch or overlap (closer than `gap` m), directly or through other parts.
 /// Each piece lists its parts' indices in order, pieces ordered by their first part; an

@@ -284,10 +284,15 @@ pub(crate) fn check(sc: &Scenario) -> Result<(), ScenarioError> {
     for (i, w) in s.walls.iter().enumerate() {
         let w = w.get_ref();
         c.point(w.at, || format!("walls[{i}].at"))?;
-        for k in 0..2 {
-            c.real(w.size[k], MIN_SIZE_M, MAX_COORD_M, "m", || {
-                format!("walls[{i}].size[{k}]")
-            })?;
+        if let Some(size) = w.size {
+            for (k, v) in size.into_iter().enumerate() {
+                c.real(v, MIN_SIZE_M, MAX_COORD_M, "m", || {
+                    format!("walls[{i}].size[{k}]")
+                })?;
+            }
+        }
+        if let Some(p) = &w.shape {
+            c.part(p.get_ref(), &format!("walls[{i}].shape"))?;
         }
         c.angle(w.yaw_deg, || format!("walls[{i}].yaw_deg"))?;
         c.real(w.height, MIN_SIZE_M, MAX_HEIGHT_M, "m", || {

@@ -632,6 +632,11 @@ impl Physics {
         )
     }
 
+    /// Adds a static wall of any shape at `pose`, tagged as wall `index`.
+    pub fn add_wall_shape(&mut self, shape: SharedShape, pose: Pose, index: usize) -> BodyId {
+        self.add_static(shape, pose, Tag::Wall(index), WALL_FRICTION)
+    }
+
     fn add_static(&mut self, shape: SharedShape, pose: Pose, tag: Tag, friction: f32) -> BodyId {
         let body = self.world.bodies.insert(
             RigidBodyBuilder::fixed()

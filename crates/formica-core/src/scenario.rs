@@ -133,17 +133,25 @@ fn default_wall_height() -> f32 {
     0.5
 }
 
-/// An extra static wall or obstacle box.
+/// An extra static wall or obstacle: a box of `size`, or any `shape` an object can have (a
+/// disc for a pillar, a polygon, concave allowed).
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WallSpec {
-    /// Centre.
+    /// Centre (the origin of `shape`).
     #[cfg_attr(feature = "schema", schemars(inner(range(min = -limits::MAX_COORD_M, max = limits::MAX_COORD_M))))]
     pub at: [f32; 2],
-    /// Size `[x, y]` before rotation.
+    /// Size `[x, y]` of a box wall before rotation (use this or `shape`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     #[cfg_attr(feature = "schema", schemars(inner(range(min = limits::MIN_SIZE_M, max = limits::MAX_COORD_M))))]
-    pub size: [f32; 2],
+    pub size: Option<[f32; 2]>,
+    /// Any other shape, as an object's `shape` takes it: `{ disc = 0.1 }` (a pillar),
+    /// `{ polygon = [[x, y], ...] }` or `{ regular = { sides, radius } }`, in the wall's frame
+    /// (use this or `size`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "schema", schemars(with = "Option<PartSpec>"))]
+    pub shape: Option<Spanned<PartSpec>>,
     /// Rotation in degrees.
     #[serde(default)]
     #[cfg_attr(feature = "schema", schemars(range(min = -limits::MAX_ANGLE_DEG, max = limits::MAX_ANGLE_DEG)))]
@@ -1234,6 +1242,30 @@ impl Scenario {
         }
     }
 
+    /// The shape of wall `i` when it has one (`None`: a box of `size`); an error at the wall
+    /// when it gives both `size` and `shape`, or neither.
+    pub fn wall_part(&self, i: usize) -> Result<Option<Part>, ScenarioError> {
+        let w = &self.spec.walls[i];
+        match (&w.get_ref().size, &w.get_ref().shape) {
+            (Some(_), None) => Ok(None),
+            (None, Some(s)) => s
+                .get_ref()
+                .to_part()
+                .map(Some)
+                .map_err(|m| self.error_at(s.span(), format!("walls[{i}].shape: {m}"))),
+            (Some(_), Some(_)) => Err(self.error_at(
+                w.span(),
+                format!("walls[{i}]: give either `size` (a box) or `shape`, not both"),
+            )),
+            (None, None) => Err(self.error_at(
+                w.span(),
+                format!(
+                    "walls[{i}]: expected a `size` (a box) or a `shape` (box, disc, polygon or regular)"
+                ),
+            )),
+        }
+    }
+
     /// Number of robots in a group.
     pub fn group_count(&self, g: usize) -> usize {
         let grp = self.spec.robots[g].get_ref();
@@ -1342,12 +1374,13 @@ impl Scenario {
         for (i, w) in s.walls.iter().enumerate() {
             let ws = w.get_ref();
             // Every number is finite by now (checked above for the whole file).
-            if !(ws.size[0] > 0.0 && ws.size[1] > 0.0 && ws.height > 0.0) {
+            if !(ws.size.is_none_or(|s| s[0] > 0.0 && s[1] > 0.0) && ws.height > 0.0) {
                 return Err(self.error_at(
                     w.span(),
                     format!("walls[{i}]: expected a positive `size` and `height`"),
                 ));
             }
+            self.wall_part(i)?;
         }
         for (i, l) in s.lights.iter().enumerate() {
             let ls = l.get_ref();

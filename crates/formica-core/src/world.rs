@@ -18,17 +18,55 @@ use rand::{Rng, SeedableRng};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// A static wall or obstacle box.
+/// A static wall or obstacle: a box, or any shape an object can have.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Wall {
-    /// Centre.
+    /// Centre (the origin of `shape`).
     pub center: Vec2,
-    /// Size before rotation.
+    /// Size before rotation: of the box, or of the box round `shape`'s outline.
     pub size: Vec2,
     /// Rotation (rad).
     pub yaw: f32,
     /// Height (m).
     pub height: f32,
+    /// Its shape in its own frame (`None`: a box of `size` centred on `center`).
+    pub shape: Option<Part>,
+}
+
+impl Wall {
+    /// A box wall.
+    fn boxed(center: Vec2, size: Vec2, height: f32) -> Self {
+        Self {
+            center,
+            size,
+            yaw: 0.0,
+            height,
+            shape: None,
+        }
+    }
+
+    /// Its outline in the world (discs with 32 sides), counter-clockwise for boxes.
+    pub fn outline(&self) -> Vec<Vec2> {
+        let pose = Pose::new(self.center.x, self.center.y, self.yaw);
+        let local = match &self.shape {
+            None => {
+                let h = self.size / 2.0;
+                vec![
+                    Vec2::new(-h.x, -h.y),
+                    Vec2::new(h.x, -h.y),
+                    Vec2::new(h.x, h.y),
+                    Vec2::new(-h.x, h.y),
+                ]
+            }
+            Some(p) => part_outlines(std::slice::from_ref(p), 32)
+                .pop()
+                .unwrap_or_default(),
+        };
+        local
+            .into_iter()
+            .map(|v| pose.world_from_local(v))
+            .collect()
+    }
 }
 
 /// An object in the world.
@@ -318,41 +356,53 @@ impl World {
         let t = spec.arena.wall_thickness;
         let wh = spec.arena.wall_height;
         let mut walls = vec![
-            Wall {
-                center: c + Vec2::new(w / 2.0, 0.0),
-                size: Vec2::new(t, h + t),
-                yaw: 0.0,
-                height: wh,
-            },
-            Wall {
-                center: c - Vec2::new(w / 2.0, 0.0),
-                size: Vec2::new(t, h + t),
-                yaw: 0.0,
-                height: wh,
-            },
-            Wall {
-                center: c + Vec2::new(0.0, h / 2.0),
-                size: Vec2::new(w + t, t),
-                yaw: 0.0,
-                height: wh,
-            },
-            Wall {
-                center: c - Vec2::new(0.0, h / 2.0),
-                size: Vec2::new(w + t, t),
-                yaw: 0.0,
-                height: wh,
-            },
+            Wall::boxed(c + Vec2::new(w / 2.0, 0.0), Vec2::new(t, h + t), wh),
+            Wall::boxed(c - Vec2::new(w / 2.0, 0.0), Vec2::new(t, h + t), wh),
+            Wall::boxed(c + Vec2::new(0.0, h / 2.0), Vec2::new(w + t, t), wh),
+            Wall::boxed(c - Vec2::new(0.0, h / 2.0), Vec2::new(w + t, t), wh),
         ];
-        for ws in spec.walls.iter().map(|w| w.get_ref()) {
-            walls.push(Wall {
-                center: Vec2::new(ws.at[0], ws.at[1]),
-                size: Vec2::new(ws.size[0], ws.size[1]),
-                yaw: ws.yaw_deg.to_radians(),
-                height: ws.height,
-            });
-        }
+        // Bodies in file order, the arena's four first (their order is the engine's).
         for (i, wl) in walls.iter().enumerate() {
             physics.add_wall(wl.center, wl.size, wl.yaw, i);
+        }
+        for (k, wsp) in spec.walls.iter().enumerate() {
+            let ws = wsp.get_ref();
+            let center = Vec2::new(ws.at[0], ws.at[1]);
+            let yaw = ws.yaw_deg.to_radians();
+            let i = walls.len();
+            match sc.wall_part(k)? {
+                None => {
+                    let size = ws.size.unwrap_or_default();
+                    physics.add_wall(center, Vec2::new(size[0], size[1]), yaw, i);
+                    walls.push(Wall {
+                        center,
+                        size: Vec2::new(size[0], size[1]),
+                        yaw,
+                        height: ws.height,
+                        shape: None,
+                    });
+                }
+                Some(part) => {
+                    let span = ws.shape.as_ref().map_or(wsp.span(), |s| s.span());
+                    let shape = compound_shape(std::slice::from_ref(&part))
+                        .map_err(|e| sc.error_at(span, format!("walls[{k}].shape: {}", e.0)))?;
+                    physics.add_wall_shape(shape, Pose::new(center.x, center.y, yaw), i);
+                    let (lo, hi) = part_outlines(std::slice::from_ref(&part), 32)
+                        .concat()
+                        .iter()
+                        .fold(
+                            (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)),
+                            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+                        );
+                    walls.push(Wall {
+                        center,
+                        size: (hi - lo).max(Vec2::ZERO),
+                        yaw,
+                        height: ws.height,
+                        shape: Some(part),
+                    });
+                }
+            }
         }
         let outer = Vec2::new(w + t, h + t) / 2.0;
         physics.set_index_area(c - outer, c + outer);

@@ -118,11 +118,7 @@ pub fn draw(world: &World, frame: &Frame, overlay: &Overlay<'_>) -> Pixmap {
 
     // Walls.
     for w in &world.walls {
-        let (s, c) = ops::sin_cos(w.yaw);
-        let h = w.size / 2.0;
-        let corners = [(-h.x, -h.y), (h.x, -h.y), (h.x, h.y), (-h.x, h.y)]
-            .map(|(x, y)| w.center + Vec2::new(c * x - s * y, s * x + c * y));
-        if let Some(p) = polygon(frame, corners) {
+        if let Some(p) = polygon(frame, w.outline()) {
             pm.fill_path(&p, &rgb([110, 110, 110]), FillRule::Winding, id, None);
         }
     }

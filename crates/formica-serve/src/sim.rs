@@ -465,14 +465,7 @@ impl Sim {
         let walls = w
             .walls
             .iter()
-            .map(|wl| {
-                let (s, c) = ops::sin_cos(wl.yaw);
-                let h = wl.size / 2.0;
-                [(-h.x, -h.y), (h.x, -h.y), (h.x, h.y), (-h.x, h.y)]
-                    .iter()
-                    .map(|&(x, y)| pt(wl.center + Vec2::new(c * x - s * y, s * x + c * y)))
-                    .collect()
-            })
+            .map(|wl| wl.outline().into_iter().map(pt).collect())
             .collect();
         let out = SceneOut {
             generation: self.generation,
