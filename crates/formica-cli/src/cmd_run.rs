@@ -500,27 +500,29 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
             results.push(r);
         }
     }
-    let summary = stats::summarize(&sc.name, &results);
+    let summary = stats::summarize(&sc.name, &results, sc.has_success_rule());
     if a.json {
         outln!(
             "{}",
             serde_json::to_string(&summary).context("encoding JSON")?
         );
-    } else {
-        if !sc.has_success_rule() {
-            outln!("{}", unjudged_summary(&sc.name, &results));
-        } else {
-            outln!(
+    } else if let (Some(rate), Some([lo, hi]), Some(eff)) = (
+        summary.success_rate,
+        summary.success_ci95,
+        summary.mean_path_efficiency,
+    ) {
+        outln!(
             "{}: {} trials, success {:.1} % (95 % CI {:.1}-{:.1} %), median time {}, mean path efficiency {:.3}",
             summary.scenario,
             summary.trials,
-            100.0 * summary.success_rate,
-            100.0 * summary.success_ci95[0],
-            100.0 * summary.success_ci95[1],
+            100.0 * rate,
+            100.0 * lo,
+            100.0 * hi,
             summary.median_time_s.map_or("n/a (under half succeeded)".into(), |t| format!("{t:.1} s")),
-            summary.mean_path_efficiency
+            eff
         );
-        }
+    } else {
+        outln!("{}", unjudged_summary(&sc.name, &results));
     }
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

@@ -54,20 +54,22 @@ pub struct Summary {
     pub scenario: String,
     /// Number of trials.
     pub trials: usize,
-    /// Successes / trials.
-    pub success_rate: f64,
-    /// Wilson 95 % interval of the success rate.
-    pub success_ci95: [f64; 2],
-    /// Median completion time, failures censored (null if under half succeeded).
+    /// Successes / trials (null for a scenario with no success rule: static filling).
+    pub success_rate: Option<f64>,
+    /// Wilson 95 % interval of the success rate (null as `success_rate`).
+    pub success_ci95: Option<[f64; 2]>,
+    /// Median completion time, failures censored (null if under half succeeded, or no
+    /// success rule).
     pub median_time_s: Option<f64>,
-    /// Mean path efficiency over all trials.
-    pub mean_path_efficiency: f64,
+    /// Mean path efficiency over all trials (null as `success_rate`).
+    pub mean_path_efficiency: Option<f64>,
     /// Counts of each outcome.
     pub outcomes: std::collections::BTreeMap<String, usize>,
 }
 
-/// Summarises a batch.
-pub fn summarize(scenario: &str, results: &[RunResult]) -> Summary {
+/// Summarises a batch; `judged`: whether the scenario has a success rule (without one, the
+/// success figures are null rather than a 0 % that means nothing).
+pub fn summarize(scenario: &str, results: &[RunResult], judged: bool) -> Summary {
     let n = results.len();
     let k = results
         .iter()
@@ -80,10 +82,11 @@ pub fn summarize(scenario: &str, results: &[RunResult]) -> Summary {
     Summary {
         scenario: scenario.to_string(),
         trials: n,
-        success_rate: if n > 0 { k as f64 / n as f64 } else { 0.0 },
-        success_ci95: wilson95(k, n),
-        median_time_s: censored_median(results),
-        mean_path_efficiency: mean_of(results, |r| Some(r.path_efficiency)).unwrap_or(0.0),
+        success_rate: judged.then_some(if n > 0 { k as f64 / n as f64 } else { 0.0 }),
+        success_ci95: judged.then(|| wilson95(k, n)),
+        median_time_s: censored_median(results).filter(|_| judged),
+        mean_path_efficiency: judged
+            .then(|| mean_of(results, |r| Some(r.path_efficiency)).unwrap_or(0.0)),
         outcomes,
     }
 }

@@ -120,6 +120,27 @@ fn static_filling_runs_close_with_filling_figures_not_a_success_rate() {
     assert!(last.contains("of a capacity of 11"), "{last}");
     assert!(last.contains("runs without false stops"), "{last}");
     assert!(!last.contains("success 0.0 %"), "{last}");
+    // The JSON summary has no success figures either (it read 0 %, [0, 0.66] and a path
+    // efficiency of 0).
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-fill-u-all.toml"))
+        .args(["--seeds", "1..2", "--duration", "60", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let summary: serde_json::Value =
+        serde_json::from_str(text.lines().last().unwrap_or_default()).unwrap();
+    for key in [
+        "success_rate",
+        "success_ci95",
+        "median_time_s",
+        "mean_path_efficiency",
+    ] {
+        assert_eq!(summary[key], serde_json::Value::Null, "{key}: {summary}");
+    }
+    assert_eq!(summary["trials"], 2);
 }
 
 #[test]
