@@ -1593,6 +1593,27 @@ impl Physics {
         })
     }
 
+    /// The first object (in the order they were added) that `shape` at `pose` overlaps by
+    /// more than `depth` m (bodies that only touch do not count).
+    pub fn object_overlaps(
+        &self,
+        shape: &SharedShape,
+        pose: rapier2d::math::Pose,
+        depth: f32,
+    ) -> Option<usize> {
+        self.colliders()
+            .find_map(|c| match Tag::decode(c.user_data) {
+                Tag::Object(j) => {
+                    rapier2d::parry::query::contact(&pose, &**shape, c.position(), c.shape(), 0.0)
+                        .ok()
+                        .flatten()
+                        .is_some_and(|k| k.dist < -depth)
+                        .then_some(j)
+                }
+                _ => None,
+            })
+    }
+
     /// Whether a body currently touches (within [`TOUCH`]) any collider with the given kind of
     /// tag.
     pub fn touches(&self, id: BodyId, mut pred: impl FnMut(Tag) -> bool) -> bool {

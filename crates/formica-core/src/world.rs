@@ -1031,6 +1031,17 @@ fn object_fits(
             format!("objects[{i}]{name}: starts inside {wall}"),
         ));
     }
+    // Objects that start overlapping are thrown apart by the contact solver before any robot
+    // moves; touching is allowed.
+    if let Some(j) = physics.object_overlaps(shape, iso, 0.001) {
+        return Err(sc.error_at(
+            o.span(),
+            format!(
+                "objects[{i}]{name}: starts overlapping objects[{j}]; move one of them (objects \
+                 may touch)"
+            ),
+        ));
+    }
     Ok(())
 }
 

@@ -296,6 +296,35 @@ fn object_inside_wall_is_refused() {
 }
 
 #[test]
+fn objects_that_start_overlapping_are_refused_and_touching_ones_are_not() {
+    // Before, the contact solver threw them apart in the first tick (a 50 kg box jumped 2 cm
+    // and turned 5 degrees with no robot near).
+    let two = |x: f32| {
+        format!(
+            "[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [0.5, 0.5] }}\n[[objects]]\nname = \"b\"\nat = [{x}, 0.1]\nshape = {{ disc = 0.2 }}\nmovable = false\n{ROBOTS}"
+        )
+    };
+    let t = text(&two(0.4));
+    let sc = Scenario::parse(&t, "t.toml").unwrap();
+    let e = World::new(&sc, &Overrides::default())
+        .err()
+        .unwrap()
+        .to_string();
+    let line = t
+        .match_indices("[[objects]]")
+        .nth(1)
+        .map(|(at, _)| t[..at].lines().count() + 1);
+    assert!(e.starts_with(&format!("t.toml:{}:", line.unwrap())), "{e}");
+    assert!(
+        e.contains("objects[1] (\"b\"): starts overlapping objects[0]"),
+        "{e}"
+    );
+    // The disc touching the box's east face (x = 0.25 + 0.2).
+    let sc = Scenario::parse(&text(&two(0.45)), "t.toml").unwrap();
+    assert!(World::new(&sc, &Overrides::default()).is_ok());
+}
+
+#[test]
 fn robot_outside_arena_is_refused() {
     let body = format!(
         "{OBJECT}[[robots]]\ncontroller = \"random-walk\"\nplacement = {{ poses = [[5.0, 0.0, 0.0]] }}\n"
