@@ -357,7 +357,64 @@ fn group_warnings(sc: &Scenario, w: Option<&World>, g: usize) -> Vec<String> {
     ]
     .into_iter()
     .flatten()
+    .chain(w.map(|w| light_warnings(sc, w, g)).unwrap_or_default())
     .collect()
+}
+
+/// For a group running a transport controller that reads its light ring (`occlusion`,
+/// `fill-transport`): warnings about what its light sensors see at the target object's start
+/// (each measured with an audit's scenario: `occlusion` delivered 0 to 4 of 10 there):
+/// - an object no taller than the light sensors hides the goal from no robot;
+/// - the goal light reads under 0.1 there, the contrast the two take for lit by default
+///   (`lit_contrast`), so that robots by the object cannot tell where it hides the goal;
+/// - another light reaches the object: the ring sees every light, and a robot on the goal's
+///   side then reads a light too.
+fn light_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
+    let controller = sc.spec.robots[g].get_ref().controller.get_ref();
+    let mut out = Vec::new();
+    let (Some(t), Some(goal)) = (w.target, w.goal_light) else {
+        return out;
+    };
+    let group = &w.groups[g];
+    if !matches!(controller.as_str(), "occlusion" | "fill-transport") || !group.needs().light {
+        return out;
+    }
+    let sensor_h = group.model.light_height;
+    let object = &w.objects[t];
+    if object.height <= sensor_h {
+        out.push(format!(
+            "object {t} \"{}\" is {} m tall, no taller than the light sensors of robots.{g} \
+             ({sensor_h} m): it hides the goal from no robot, and {controller} pushes only where \
+             the object hides it",
+            object.name, object.height
+        ));
+    }
+    let at = w.object_center(t);
+    let value = |l: &formica::sensors::Light| {
+        let d = (l.position - at).length();
+        let h = l.height - sensor_h;
+        formica::robot::RobotModel::light_value((d * d + h * h).sqrt(), l.intensity)
+    };
+    let v = value(&w.lights[goal]);
+    if v < 0.1 {
+        out.push(format!(
+            "the goal light reads {v:.3} at object {t}'s start, under 0.1, the contrast \
+             {controller} takes for lit by default: robots by the object cannot tell where it \
+             hides the goal (raise lights.{goal}.intensity or move the light nearer)"
+        ));
+    }
+    for (k, l) in w.lights.iter().enumerate() {
+        let v = value(l);
+        if k != goal && v > 0.0 {
+            out.push(format!(
+                "light {k} is not the goal but reads {v:.3} at object {t}'s start: light \
+                 sensors see every light, and {controller} takes the object to hide the goal \
+                 only where it is dark from every light (move light {k} farther than 2.5 x its \
+                 intensity from the object, or remove it)"
+            ));
+        }
+    }
+    out
 }
 
 /// [`run_warnings`] for a scenario whose world is not built yet: builds it with the file's

@@ -470,6 +470,29 @@ fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
     // Two robots against the 50 kg box (2.94 N of friction; 1.5 N each).
     assert!(warned(&["robots.0.count=1"], "cannot move"));
     assert!(!warned(&["robots.0.count=2"], "cannot move"));
+    // What the light ring sees at the object: none of these in the shipped file.
+    for says in [
+        "no taller than the light sensors",
+        "under 0.1",
+        "is not the goal",
+    ] {
+        assert!(!warned(&[], says), "{says}");
+    }
+    // A box lower than the Khepera IV's light sensors (0.0145 m).
+    assert!(warned(
+        &["objects.0.height=0.01"],
+        "no taller than the light sensors"
+    ));
+    // A goal so dim that it reads under 0.1 at the box (3.5 m away: exp(-2 x 3.5 / 2) = 0.03;
+    // at intensity 4, 0.17).
+    assert!(warned(&["lights.0.intensity=2.0"], "under 0.1"));
+    assert!(!warned(&["lights.0.intensity=4.0"], "under 0.1"));
+    // A second light that is not the goal, 1.5 m north of the box.
+    let lit = text.replace(
+        "[[objects]]",
+        "[[lights]]\nat = [0.0, 1.5]\ngoal = false\n\n[[objects]]",
+    );
+    assert!(check_text(&dir, &lit).contains("light 1 is not the goal but reads"));
     // A goal light far beyond the east wall, and one just beyond it.
     assert!(warned(&["lights.0.at=[9.0, 0.0]"], "no trial can succeed"));
     assert!(warned(&["lights.0.at=[3.2, 0.0]"], "outside the arena"));
