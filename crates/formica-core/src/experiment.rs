@@ -48,7 +48,7 @@ use std::collections::BTreeMap;
 /// (physics, sensing, controllers, metrics, random streams, scenario defaults) or change what a
 /// result field means bumps it, with an entry in `CHANGELOG.md`. `formica sweep` refuses to add
 /// trials to a store written with another results format.
-pub const RESULTS_FORMAT: u32 = 22;
+pub const RESULTS_FORMAT: u32 = 23;
 
 /// How a run ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
@@ -381,9 +381,10 @@ impl LoopFunctions for TransportHooks {
             r.object_path_m = self.path_m;
             let start = world.objects[t].start;
             let disp = f64::from((now - start).length());
-            // Around obstacles, the shortest path on a visibility graph (no extra walls: the
-            // straight distance, as before).
-            let optimal = if world.walls.len() > 4 {
+            // Around obstacles, the shortest path on a visibility graph (no extra walls and no
+            // fixed objects: the straight distance, as before).
+            let fixed = world.objects.iter().any(|o| !o.movable);
+            let optimal = if world.walls.len() > 4 || fixed {
                 optimal_path(world, t, start, now).max(disp)
             } else {
                 disp
@@ -398,7 +399,8 @@ impl LoopFunctions for TransportHooks {
 }
 
 /// Length (m) of the shortest path of object `t`'s centre from `from` to `to` around the
-/// walls inside the arena (not the four arena walls; `world.walls.len() > 4`), each grown by the object's half-width
+/// walls inside the arena (not the four arena walls) and the objects that cannot be pushed
+/// (`movable = false`), each grown by the object's half-width
 /// (half the smaller side of its outline's bounding box), turning only where the grown object
 /// fits inside the arena ([`visibility::shortest_path`](crate::visibility::shortest_path)).
 pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
@@ -438,6 +440,24 @@ pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
                         .collect();
                     obstacles.push(grown(&pts, r).into_iter().map(place).collect());
                 }
+            }
+        }
+    }
+    // Objects nothing can push are obstacles too (where they stand; movable ones can be
+    // pushed aside, and are not).
+    for (k, o) in world.objects.iter().enumerate() {
+        if k == t || o.movable {
+            continue;
+        }
+        let pose = world.object_pose(k);
+        for part in &o.parts {
+            for piece in crate::geometry::convex_pieces(part, 16) {
+                let pts: Vec<[f64; 2]> = piece
+                    .iter()
+                    .map(|p| pose.world_from_local(*p))
+                    .map(|p| [f64::from(p.x), f64::from(p.y)])
+                    .collect();
+                obstacles.push(grown(&pts, r));
             }
         }
     }

@@ -212,7 +212,52 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
             edges.push((ring[i], ring[(i + 1) % ring.len()]));
         }
     }
-    pack_discs(&hull, radius, &edges, fits)
+    pack_discs(&hull, radius, &edges, fits).max(pack_deepest_first(&hull, radius, fits))
+}
+
+/// Greedy packing of discs of `radius` into the convex region `hull`, where `fits` says
+/// whether a disc centred at a point is allowed: candidate centres on a grid of a quarter
+/// radius (coarser for large regions, at most about [`MAX_PACKING_POINTS`] candidates), taken
+/// deepest inside `hull` first, each kept when it fits and is clear of those kept. Where the
+/// cavity is a ring of separate pockets (between a star's points) no lattice puts a disc in
+/// each; this does, deepest first, as robots fill them.
+pub fn pack_deepest_first(hull: &[Vec2], radius: f32, fits: impl Fn(Vec2) -> bool) -> usize {
+    if hull.len() < 3 || !(radius > 0.0) {
+        return 0;
+    }
+    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+    for p in hull {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let extent = hi - lo;
+    let step = (0.25 * radius)
+        .max((extent.x * extent.y / MAX_PACKING_POINTS as f32).sqrt())
+        .max(1e-6);
+    let (nx, ny) = (
+        (extent.x / step).ceil() as usize + 1,
+        (extent.y / step).ceil() as usize + 1,
+    );
+    let mut candidates: Vec<(f32, Vec2)> = Vec::new();
+    for iy in 0..ny {
+        for ix in 0..nx {
+            let p = lo + Vec2::new(ix as f32 * step, iy as f32 * step);
+            let depth = inside_depth(hull, p);
+            if depth >= radius - CAVITY_SLACK_M && fits(p) {
+                candidates.push((depth, p));
+            }
+        }
+    }
+    // Deepest first; ties in grid order (the sort is stable).
+    candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let gap = 2.0 * radius * (1.0 + 1e-4);
+    let mut kept: Vec<Vec2> = Vec::new();
+    for (_, p) in candidates {
+        if kept.iter().all(|q| (p - *q).length() >= gap) {
+            kept.push(p);
+        }
+    }
+    kept.len()
 }
 
 /// Lattice packing of discs of `radius` into the convex region `hull`, where `fits` says

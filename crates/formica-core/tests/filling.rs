@@ -4,6 +4,7 @@ mod common;
 
 use common::{robot_group, scenario, start};
 use formica::experiment::Run;
+use formica::geometry::Vec2;
 
 /// The seed's U (opening toward -x), static, 0.3 m tall, with the beacon light above it.
 const U: &str = r#"
@@ -275,6 +276,36 @@ movable = false
 shape = { polygon = [[-0.3, -0.3], [0.3, -0.3], [0.3, -0.11], [0.1, -0.11], [0.1, 0.11], [0.3, 0.11], [0.3, 0.3], [-0.3, 0.3]] }
 "#;
     assert_eq!(capacity_of(notched), 1);
+    // A five-point star (points 0.5 m, notches 0.22 m from its centre): one disc fits in each
+    // notch, with 12 to 14 mm to spare, and no lattice puts one in all five (they read 3, and
+    // 5 robots attached in them in every run of an audit).
+    let star = r#"
+[[objects]]
+movable = false
+shape = { polygon = [[0.0, 0.5], [-0.1293, 0.178], [-0.4755, 0.1545], [-0.2092, -0.068], [-0.2939, -0.4045], [0.0, -0.22], [0.2939, -0.4045], [0.2092, -0.068], [0.4755, 0.1545], [0.1293, 0.178]] }
+"#;
+    assert_eq!(capacity_of(star), 5);
+}
+
+#[test]
+fn deepest_first_packing_keeps_discs_apart_and_inside() {
+    // In a 1 x 0.3 m rectangle every disc of 0.07 m fits where its centre is 0.07 m from the
+    // sides: one row along the middle, 1 + floor(0.86 / 0.14) = 7 discs.
+    let hull = [
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 0.3),
+        Vec2::new(0.0, 0.3),
+    ];
+    let n = formica::metrics::pack_deepest_first(&hull, 0.07, |_| true);
+    // Deepest first fills the middle line first (depth 0.15), then what is left beside it: on
+    // a grid of 0.0175 m, at least 6 and never more than the 7 that fit.
+    assert!((6..=7).contains(&n), "{n}");
+    // Nothing fits where `fits` refuses everything.
+    assert_eq!(
+        formica::metrics::pack_deepest_first(&hull, 0.07, |_| false),
+        0
+    );
 }
 
 #[test]

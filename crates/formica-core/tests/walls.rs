@@ -85,6 +85,13 @@ fn the_optimal_path_goes_round_a_pillar() {
     let got = optimal_path(&run.world, 0, Vec2::new(0.0, -1.0), Vec2::new(0.0, 1.0));
     // The pillar is a 16-sided polygon drawn round it: a little longer, never shorter.
     assert!(got >= exact && got < exact * 1.01, "{got} against {exact}");
+    // An object nothing can push is gone round as a wall is (before, the path went through it).
+    let sc = scenario(
+        "[[objects]]\nat = [0.0, -1.0]\nshape = { box = [0.4, 0.4] }\n[[objects]]\nat = [0.0, 0.0]\nshape = { disc = 0.25 }\nmovable = false\n",
+    );
+    let run = start(&sc, 1);
+    let fixed = optimal_path(&run.world, 0, Vec2::new(0.0, -1.0), Vec2::new(0.0, 1.0));
+    assert_eq!(fixed, got);
     // A concave polygon (a U opening south) is gone round by its convex pieces: the path
     // from its mouth's middle to the point above it leaves by the mouth.
     let u = "[[walls]]\nat = [0.0, 0.0]\nshape = { polygon = [[-0.6, -0.6], [-0.4, -0.6], [-0.4, 0.4], [0.4, 0.4], [0.4, -0.6], [0.6, -0.6], [0.6, 0.6], [-0.6, 0.6]] }\n[[objects]]\nat = [0.0, -1.5]\nshape = { box = [0.1, 0.1] }\n";
