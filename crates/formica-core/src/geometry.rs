@@ -474,17 +474,30 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
             )));
         }
     }
+    if (0..n).all(|i| collinear(pts[i], pts[(i + 1) % n], pts[(i + 2) % n])) {
+        return Err(ShapeError(
+            "polygon vertices all lie on one straight line: it has no area".into(),
+        ));
+    }
     for i in 0..n {
         let (a, b, c) = (pts[i], pts[(i + 1) % n], pts[(i + 2) % n]);
-        // A vertex on the line through its neighbours adds nothing (straight on) or folds
-        // the outline back on itself (a spike of no width).
+        // A vertex on the line through its neighbours adds nothing (straight on: dropped
+        // before this check, by `polygon_vertices`) or folds the outline back on itself (a
+        // spike of no width). Named by its place: dropped vertices shift the numbers.
         if collinear(a, b, c) {
-            return Err(ShapeError(format!(
-                "polygon vertex {} lies on the line through vertices {} and {} (collinear)",
-                (i + 1) % n + 1,
-                i + 1,
-                (i + 2) % n + 1
-            )));
+            return Err(ShapeError(if (b - a).dot(c - b) <= 0.0 {
+                format!(
+                    "polygon folds back on itself at vertex ({}, {}): the outline goes out to \
+                     it and back along one line (a spike of no width)",
+                    b.x, b.y
+                )
+            } else {
+                format!(
+                    "polygon vertex ({}, {}) lies on the straight line through its neighbours \
+                     ({}, {}) and ({}, {})",
+                    b.x, b.y, a.x, a.y, c.x, c.y
+                )
+            }));
         }
     }
     for i in 0..n {

@@ -96,10 +96,17 @@ fn degenerate_disc_is_refused() {
 #[test]
 fn degenerate_polygons_are_refused() {
     for (poly, msg) in [
-        ("[[0, 0], [1, 0], [2, 0]]", "collinear"),
-        ("[[0, 0], [1, 0], [2, 0], [3, 0]]", "collinear"),
-        // A spike of no width: the outline folds back on itself at (1, 0).
-        ("[[0, 0], [1, 0], [0.5, 0], [0, 1]]", "collinear"),
+        ("[[0, 0], [1, 0], [2, 0]]", "all lie on one straight line"),
+        (
+            "[[0, 0], [1, 0], [2, 0], [3, 0]]",
+            "all lie on one straight line",
+        ),
+        // A spike of no width: the outline folds back on itself at (1, 0) (the message named
+        // "vertex 2 on the line through vertices 1 and 3 (collinear)").
+        (
+            "[[0, 0], [1, 0], [0.5, 0], [0, 1]]",
+            "folds back on itself at vertex (1, 0)",
+        ),
         ("[[0, 0], [0.0005, 0], [0, 1]]", "coincide"),
         ("[[0, 0], [0, 0], [0, 1], [0, 1]]", "coincide"),
         ("[[0, 0], [1, 1]]", "3 to 1000 vertices"),
