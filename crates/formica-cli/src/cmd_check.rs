@@ -29,10 +29,29 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if let Some(d) = &s.description {
         outln!("  description: {}", d.trim());
     }
-    let walls = match s.walls.len() {
+    let mut walls = match s.walls.len() {
         1 => "1 extra wall".to_string(),
         n => format!("{n} extra walls"),
     };
+    // Walls of other shapes than boxes, by kind.
+    let mut kinds: std::collections::BTreeMap<&str, usize> = Default::default();
+    for wl in &w.walls {
+        let kind = match wl.shape.as_ref().map(|p| &p.shape) {
+            None => continue,
+            Some(formica::geometry::Primitive::Box(_)) => "box",
+            Some(formica::geometry::Primitive::Disc(_)) => "disc",
+            Some(formica::geometry::Primitive::Polygon(_)) => "polygon",
+            Some(formica::geometry::Primitive::Regular { .. }) => "regular polygon",
+        };
+        *kinds.entry(kind).or_default() += 1;
+    }
+    if !kinds.is_empty() {
+        let list: Vec<String> = kinds
+            .iter()
+            .map(|(k, n)| format!("{n} {k}{}", if *n == 1 { "" } else { "s" }))
+            .collect();
+        walls += &format!(" ({} by `shape`)", list.join(", "));
+    }
     outln!(
         "  arena: {} x {} m, {walls}",
         s.arena.size[0],

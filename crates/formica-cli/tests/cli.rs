@@ -46,6 +46,27 @@ fn every_shipped_scenario_checks() {
 }
 
 #[test]
+fn check_names_the_shapes_of_walls_that_are_not_boxes() {
+    let out = formica()
+        .arg("check")
+        .arg(repo("scenarios/pillars.toml"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("arena: 3 x 3 m, 4 extra walls (3 discs, 1 polygon by `shape`)"),
+        "{text}"
+    );
+    let out = formica()
+        .arg("check")
+        .arg(repo("scenarios/qm-middle.toml"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("arena: 3 x 3 m, 1 extra wall\n"), "{text}");
+}
+
+#[test]
 fn run_json_has_the_promised_keys_and_out_writes_files() {
     let dir = tmp("out");
     let out = formica()
