@@ -6,6 +6,11 @@
         --sweep experiments/queiroz-macrae-obstacles.toml --allow-mixed
     python3 experiments/obstacle-tables.py qmo-full.db
 
+or from slice stores before they are merged (their trials together; a cell no store has
+reads "?"):
+
+    python3 experiments/obstacle-tables.py qmo-n5-15-ft.db qmo-n20-ft.db qmo-n30-ft.db
+
 Standard library only. A cell is the successes of the 350 trials (7 shapes x 50 seeds) and,
 in brackets, the time by which half of them had arrived (the ceil(n/2)-th arrival; none if
 fewer than half did), as `formica report` computes its median time.
@@ -18,12 +23,13 @@ SIZES = [5, 10, 15, 20, 30]
 FT, OCC, CHEN = "fill-transport with relays", "occlusion with relays", "Chen's rule alone"
 
 
-def load(db):
+def load(dbs):
     out = {}
     q = 'SELECT label, scenario, robots, "objects.0.shape", outcome, sim_time_s, path_efficiency FROM trials'
-    for label, scen, n, shape, outcome, t, eff in sqlite3.connect(db).execute(q):
-        m = scen.rsplit("/", 1)[-1].removesuffix(".toml")
-        out.setdefault((label, m, n), []).append(("polygon" in shape, outcome == "success", t, eff))
+    for db in dbs:
+        for label, scen, n, shape, outcome, t, eff in sqlite3.connect(db).execute(q):
+            m = scen.rsplit("/", 1)[-1].removesuffix(".toml")
+            out.setdefault((label, m, n), []).append(("polygon" in shape, outcome == "success", t, eff))
     return out
 
 
@@ -38,7 +44,7 @@ def cell(trials, median=True):
 
 
 def main():
-    d = load(sys.argv[1] if len(sys.argv) > 1 else "qmo-full.db")
+    d = load(sys.argv[1:] or ["qmo-full.db"])
     print("## fill-transport with relays against occlusion with relays, N = 20\n")
     print("| map | fill-transport | concave | convex | occlusion | concave | convex |")
     print("|---|---|---|---|---|---|---|")
