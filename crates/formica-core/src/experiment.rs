@@ -335,11 +335,7 @@ pub fn object_size(world: &World, i: usize) -> f32 {
         }
     }
     let pts: Vec<Vec2> = o.outlines().into_iter().flatten().collect();
-    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-    for p in pts {
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
+    let (lo, hi) = crate::geometry::bounds(&pts);
     (hi - lo).length()
 }
 
@@ -405,11 +401,7 @@ impl LoopFunctions for TransportHooks {
 /// fits inside the arena ([`visibility::shortest_path`](crate::visibility::shortest_path)).
 pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
     let pts: Vec<Vec2> = world.objects[t].outlines().into_iter().flatten().collect();
-    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-    for p in pts {
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
+    let (lo, hi) = crate::geometry::bounds(&pts);
     let r = f64::from(((hi - lo).x.min((hi - lo).y) / 2.0).max(0.0));
     let mut obstacles: Vec<Vec<[f64; 2]>> = Vec::new();
     for w in &world.walls[4..] {

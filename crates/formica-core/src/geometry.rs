@@ -294,6 +294,14 @@ pub fn part_outlines(parts: &[Part], disc_segments: usize) -> Vec<Vec<Vec2>> {
         .collect()
 }
 
+/// The corners `(min, max)` of the axis-aligned box round `pts` (`(MAX, MIN)` for none).
+pub fn bounds<'a>(pts: impl IntoIterator<Item = &'a Vec2>) -> (Vec2, Vec2) {
+    pts.into_iter().fold(
+        (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    )
+}
+
 /// Convex pieces covering a part, counter-clockwise, in the common frame: a convex primitive
 /// is one piece, a concave polygon the convex pieces of the collision engine's decomposition,
 /// and a disc the regular polygon of `disc_segments` sides drawn round it (so that the pieces

@@ -10,7 +10,7 @@
 //! there).
 
 use crate::experiment::{LoopFunctions, Outcome, RunResult};
-use crate::geometry::{convex_hull, Vec2};
+use crate::geometry::{bounds, convex_hull, Vec2};
 use crate::ops;
 use crate::scenario::Scenario;
 use crate::world::World;
@@ -82,11 +82,7 @@ pub fn fill_areas(world: &World, obj: usize, discs: &[(Vec2, f32)]) -> FillAreas
         }
     }
     let hull = convex_hull(&pts);
-    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-    for p in &hull {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
+    let (lo, hi) = bounds(&hull);
     let body = world.objects[obj].body;
     let extent = (hi - lo).max(Vec2::splat(1e-3));
     let step = AREA_STEP_M.max((extent.x * extent.y / MAX_AREA_SAMPLES).sqrt());
@@ -191,10 +187,7 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
     if !(radius > 0.0) || hull.len() < 3 {
         return 0;
     }
-    let (lo, hi) = hull.iter().fold(
-        (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
+    let (lo, hi) = bounds(&hull);
     let per_axis = f64::from((hi - lo).length() + 4.0 * radius) / f64::from(2.0 * radius) + 1.0;
     if per_axis * per_axis > MAX_PACKING_POINTS as f64 {
         let cavity = fill_areas(world, obj, &[]).cavity;
@@ -225,11 +218,7 @@ pub fn pack_deepest_first(hull: &[Vec2], radius: f32, fits: impl Fn(Vec2) -> boo
     if hull.len() < 3 || !(radius > 0.0) {
         return 0;
     }
-    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-    for p in hull {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
+    let (lo, hi) = bounds(hull);
     let extent = hi - lo;
     let step = (0.25 * radius)
         .max((extent.x * extent.y / MAX_PACKING_POINTS as f32).sqrt())
@@ -274,11 +263,7 @@ pub fn pack_discs(
     if hull.len() < 3 || !(radius > 0.0) {
         return 0;
     }
-    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-    for p in hull {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
+    let (lo, hi) = bounds(hull);
     let centre = (lo + hi) * 0.5;
     let half_diag = (hi - lo).length() * 0.5 + 2.0 * radius;
     let d = 2.0 * radius * (1.0 + 1e-4);

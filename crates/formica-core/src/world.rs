@@ -4,7 +4,7 @@
 use crate::controller::{
     Actuation, AttachCommand, BatchController, BatchRobot, Controller, ControllerFactory, RobotRng,
 };
-use crate::geometry::{compound_shape, part_outlines, Part, Pose, Vec2};
+use crate::geometry::{bounds, compound_shape, part_outlines, Part, Pose, Vec2};
 use crate::parallel;
 use crate::physics::{AttachId, BodyId, Nearby, Physics, Tag};
 use crate::robot::RobotModel;
@@ -407,13 +407,7 @@ impl World {
                     let shape = compound_shape(std::slice::from_ref(&part))
                         .map_err(|e| sc.error_at(span, format!("walls[{k}].shape: {}", e.0)))?;
                     physics.add_wall_shape(shape, Pose::new(center.x, center.y, yaw), i);
-                    let (lo, hi) = part_outlines(std::slice::from_ref(&part), 32)
-                        .concat()
-                        .iter()
-                        .fold(
-                            (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN)),
-                            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-                        );
+                    let (lo, hi) = bounds(&part_outlines(std::slice::from_ref(&part), 32).concat());
                     walls.push(Wall {
                         center,
                         size: (hi - lo).max(Vec2::ZERO),

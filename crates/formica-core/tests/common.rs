@@ -53,6 +53,23 @@ pub fn still_robots(poses: &[[f32; 3]]) -> String {
     robot_group("constant", "left = 0.0, right = 0.0", poses)
 }
 
+/// Robots that read proximity and light but stand still, with exact sensors.
+pub fn watcher(poses: &[[f32; 3]]) -> String {
+    watcher_with(poses, "noise = \"none\"")
+}
+
+/// Still proximity-and-light robots with the given `sensors` table (TOML, without braces).
+pub fn watcher_with(poses: &[[f32; 3]], sensors: &str) -> String {
+    format!(
+        "{}sensors = {{ {sensors} }}\n",
+        robot_group(
+            "random-walk",
+            "speed = 0.0, turn_every_s = 1e9, avoid_threshold = 10.0",
+            poses,
+        )
+    )
+}
+
 /// Robots driving straight at `speed` from explicit poses.
 pub fn pushers(poses: &[[f32; 3]], speed: f32) -> String {
     robot_group(

@@ -6,23 +6,6 @@ use formica::ops;
 use formica::robot::RobotModel;
 use formica::sensors::light_blocked;
 
-/// Robots that read proximity and light but stand still, with exact sensors.
-fn watcher(poses: &[[f32; 3]]) -> String {
-    watcher_with(poses, "noise = \"none\"")
-}
-
-/// Still proximity-and-light robots with the given `sensors` table (TOML, without braces).
-fn watcher_with(poses: &[[f32; 3]], sensors: &str) -> String {
-    format!(
-        "{}sensors = {{ {sensors} }}\n",
-        robot_group(
-            "random-walk",
-            "speed = 0.0, turn_every_s = 1e9, avoid_threshold = 10.0",
-            poses,
-        )
-    )
-}
-
 #[test]
 fn proximity_follows_the_khepera_curve_at_known_distances() {
     let m = RobotModel::khepera4();

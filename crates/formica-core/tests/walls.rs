@@ -10,18 +10,6 @@ use formica::Scenario;
 
 const PILLAR: &str = "[[walls]]\nat = [1.0, 0.0]\nshape = { disc = 0.2 }\n";
 
-/// Stand-still robots with exact sensors.
-fn watcher(poses: &[[f32; 3]]) -> String {
-    format!(
-        "{}sensors = {{ noise = \"none\" }}\n",
-        robot_group(
-            "random-walk",
-            "speed = 0.0, turn_every_s = 1e9, avoid_threshold = 10.0",
-            poses,
-        )
-    )
-}
-
 #[test]
 fn proximity_reads_a_pillar_at_the_gap_geometry_gives() {
     let m = RobotModel::khepera4();
