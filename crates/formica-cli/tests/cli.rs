@@ -368,6 +368,21 @@ fn set_overrides_any_scenario_key_and_bad_values_are_input_errors() {
         err.contains("robots.0.count") && err.contains("at least 1"),
         "{err}"
     );
+    // A controller parameter, checked when the world is built: at the --set, not at a line of
+    // the file (which used to be a line of the text written back with the overrides).
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--set", "run.duration_s=5", "--set", "robots.0.params.nope=1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--set:2:1: `robots.0.params.nope` = 1: ")
+            && err.contains("unknown field `nope`"),
+        "{err}"
+    );
 }
 
 #[test]

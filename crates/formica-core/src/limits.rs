@@ -121,6 +121,47 @@ pub fn span_of(text: &str, path: &str) -> Option<Range<usize>> {
     best
 }
 
+/// The key path written at byte `offset` of a TOML text, as its steps (`["robots", "0",
+/// "params"]`): the deepest key or array element whose key or value spans the offset. Empty if
+/// none does (or the text does not parse). The inverse of [`span_of`].
+pub fn path_at(text: &str, offset: usize) -> Vec<String> {
+    fn value_path(v: &Spanned<DeValue<'_>>, offset: usize, out: &mut Vec<String>) -> bool {
+        match v.get_ref() {
+            DeValue::Table(t) => table_path(t, offset, out),
+            DeValue::Array(a) => {
+                for (i, item) in a.iter().enumerate() {
+                    out.push(i.to_string());
+                    if value_path(item, offset, out) || item.span().contains(&offset) {
+                        return true;
+                    }
+                    out.pop();
+                }
+                false
+            }
+            _ => false,
+        }
+    }
+    fn table_path(t: &DeTable<'_>, offset: usize, out: &mut Vec<String>) -> bool {
+        for (key, value) in t.iter() {
+            out.push(key.get_ref().to_string());
+            // Inside the value first: the tables of `[[robots]]` headers span their entries.
+            if value_path(value, offset, out)
+                || key.span().contains(&offset)
+                || value.span().contains(&offset)
+            {
+                return true;
+            }
+            out.pop();
+        }
+        false
+    }
+    let mut out = Vec::new();
+    if let Ok(doc) = DeTable::parse(text) {
+        table_path(doc.get_ref(), offset, &mut out);
+    }
+    out
+}
+
 /// Keys whose value is a point or size `[x, y]`, and keys whose list items are `[x, y]` or
 /// `[a, b, c]`, wherever they stand outside a controller's free-form `params`.
 const PAIRS: [&str; 6] = ["at", "size", "center", "min", "max", "box"];

@@ -918,6 +918,87 @@ pub struct Scenario {
     pub name: String,
     text: String,
     registry: Registry,
+    /// For a scenario made with overrides: what it was made from, so that an error found
+    /// after parsing (building its world) points at the file or the override that wrote the
+    /// key, not at the text written back with the overrides.
+    overridden: Option<std::sync::Arc<Overridden>>,
+}
+
+/// A scenario's file text and the overrides applied to it ([`Scenario::parse_with_overrides`]).
+#[derive(Debug)]
+struct Overridden {
+    base_text: String,
+    overrides: Vec<(String, toml::Value)>,
+    origin_file: String,
+    origin_text: String,
+}
+
+/// An error at the override `key` (its position in the file the overrides come from).
+fn override_error(
+    origin_file: &str,
+    origin_text: &str,
+    key: &str,
+    message: String,
+) -> ScenarioError {
+    let offset = origin_text
+        .find(&format!("\"{key}\""))
+        .or_else(|| origin_text.find(&format!("'{key}'")))
+        .or_else(|| origin_text.find(key))
+        .unwrap_or(0);
+    let (line, column) = line_col(origin_text, offset);
+    ScenarioError::Invalid {
+        file: origin_file.to_string(),
+        line,
+        column,
+        message,
+    }
+}
+
+impl Overridden {
+    /// An error found at byte `offset` of the written-back `text`: at the override that wrote
+    /// the key there (the one whose path shares most steps with it), or else where the file
+    /// `file` writes that key.
+    fn error_at(&self, text: &str, file: &str, offset: usize, message: String) -> ScenarioError {
+        let path = limits::path_at(text, offset);
+        let shared = |key: &str| {
+            let steps: Vec<&str> = key.split('.').collect();
+            let n = steps.len().min(path.len());
+            (n > 0 && steps[..n].iter().zip(&path[..n]).all(|(a, b)| a == b)).then_some(n)
+        };
+        let by = self
+            .overrides
+            .iter()
+            .filter_map(|(k, v)| shared(k).map(|n| (n, k, v)))
+            .max_by_key(|(n, _, _)| *n);
+        if let Some((_, key, value)) = by {
+            return override_error(
+                &self.origin_file,
+                &self.origin_text,
+                key,
+                format!("`{key}` = {value}: {file} rejects it: {message}"),
+            );
+        }
+        // Not overridden: where the file writes it (`robots[0].count` as `span_of` spells it).
+        let mut dotted = String::new();
+        for step in &path {
+            if step.parse::<usize>().is_ok() {
+                dotted += &format!("[{step}]");
+            } else {
+                if !dotted.is_empty() {
+                    dotted.push('.');
+                }
+                dotted += step;
+            }
+        }
+        let at = limits::span_of(&self.base_text, &dotted).map_or(0, |s| s.start);
+        let (line, column) = line_col(&self.base_text, at);
+        ScenarioError::Invalid {
+            file: file.to_string(),
+            line,
+            column,
+            message,
+        }
+    }
 }
 
 impl fmt::Display for Scenario {
@@ -1026,6 +1107,7 @@ impl Scenario {
             name,
             text: text.to_string(),
             registry: registry.clone(),
+            overridden: None,
         };
         sc.validate()?;
         Ok(sc)
@@ -1060,20 +1142,8 @@ impl Scenario {
         let parse = |text: &str| Scenario::parse_in(text, file, registry);
         let (origin_file, origin_text) = origin;
         // Where the key is written in the origin file (quoted or bare), for the message.
-        let at = |key: &str, message: String| {
-            let offset = origin_text
-                .find(&format!("\"{key}\""))
-                .or_else(|| origin_text.find(&format!("'{key}'")))
-                .or_else(|| origin_text.find(key))
-                .unwrap_or(0);
-            let (line, column) = line_col(origin_text, offset);
-            ScenarioError::Invalid {
-                file: origin_file.to_string(),
-                line,
-                column,
-                message,
-            }
-        };
+        let at =
+            |key: &str, message: String| override_error(origin_file, origin_text, key, message);
         // Sets `value` at the dotted `key` in `root`.
         fn set_path(root: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
             let parts: Vec<&str> = key.split('.').collect();
@@ -1149,7 +1219,17 @@ impl Scenario {
                 .map_err(|m| at(key, format!("`{key}`: {m} (in {file})")))?;
         }
         let full = match parse(&write(&root)?) {
-            Ok(sc) => return Ok(sc),
+            Ok(mut sc) => {
+                if !overrides.is_empty() {
+                    sc.overridden = Some(std::sync::Arc::new(Overridden {
+                        base_text: text.to_string(),
+                        overrides: overrides.to_vec(),
+                        origin_file: origin_file.to_string(),
+                        origin_text: origin_text.to_string(),
+                    }));
+                }
+                return Ok(sc);
+            }
             Err(e) => e,
         };
         let message_of = |e: &ScenarioError| match e {
@@ -1183,8 +1263,12 @@ impl Scenario {
         Err(full)
     }
 
-    /// An error positioned at a span of the source.
+    /// An error positioned at a span of the source (for a scenario made with overrides, at
+    /// the override that wrote the key there, or where the file writes it).
     pub fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> ScenarioError {
+        if let Some(o) = &self.overridden {
+            return o.error_at(&self.text, &self.file, span.start, message.into());
+        }
         let (line, column) = line_col(&self.text, span.start);
         ScenarioError::Invalid {
             file: self.file.clone(),

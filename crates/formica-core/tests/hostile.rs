@@ -516,3 +516,65 @@ fn degenerate_hull_input_does_not_panic() {
         let _ = convex_hull(&pts);
     }
 }
+
+/// The error building `sc`'s world gives: (file, line, message).
+fn build_refused(sc: &Scenario) -> (String, usize, String) {
+    match World::new(sc, &Overrides::default()) {
+        Err(ScenarioError::Invalid {
+            file,
+            line,
+            message,
+            ..
+        }) => (file, line, message),
+        Err(e) => panic!("unexpected {e}"),
+        Ok(_) => panic!("built"),
+    }
+}
+
+#[test]
+fn errors_found_while_building_a_world_with_overrides_name_the_file_or_the_override() {
+    // A scenario given overrides is written back to TOML with them; errors found after
+    // parsing (the controller's parameters, checked when the world is built) used to give a
+    // line of that written-back text under the file's name: a line the file may not have.
+    let good = text(&format!(
+        "{OBJECT}\n[[robots]]\ncount = 3\ncontroller = \"occlusion\"\n\
+         placement = {{ random = {{ min = [0.5, -1.0], max = [2.0, 1.0] }} }}\n\n\
+         [[lights]]\nat = [2.5, 0.0]\ngoal = true\n"
+    ));
+    let sweep = "seeds = \"1..2\"\n\n[vary]\n\"robots.0.params.bogus\" = [1, 2]\n";
+    let ov = |k: &str, v: toml::Value| vec![(k.to_string(), v)];
+    // An override that the controller refuses: at the override, in the file it comes from.
+    let sc = Scenario::parse_with_overrides(
+        &good,
+        "t.toml",
+        &ov("robots.0.params.bogus", toml::Value::Integer(1)),
+        ("sweep.toml", sweep),
+    )
+    .unwrap();
+    let (file, line, message) = build_refused(&sc);
+    assert_eq!((file.as_str(), line), ("sweep.toml", 4), "{message}");
+    assert!(
+        message.contains("`robots.0.params.bogus` = 1: t.toml rejects it")
+            && message.contains("unknown field `bogus`"),
+        "{message}"
+    );
+    // The file's own mistake, with an unrelated override: at the file's line.
+    let bad = good.replace(
+        "controller = \"occlusion\"",
+        "controller = \"occlusion\"\nparams = { nope = 1 }",
+    );
+    let sc = Scenario::parse_with_overrides(
+        &bad,
+        "t.toml",
+        &ov("run.duration_s", toml::Value::Float(10.0)),
+        ("sweep.toml", "[set]\n\"run.duration_s\" = 10.0\n"),
+    )
+    .unwrap();
+    let (file, line, message) = build_refused(&sc);
+    assert_eq!(
+        (file.as_str(), line),
+        ("t.toml", line_of(&bad, "nope")),
+        "{message}"
+    );
+    assert!(message.contains("unknown field `nope`"), "{message}");
+}
