@@ -368,6 +368,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .into_iter()
         .filter(|k| rows.iter().any(|r| r.params.contains_key(k)))
         .collect();
+    if a.out.exists() && !a.out.is_dir() {
+        return Err(CliError::Input(format!(
+            "--out {}: a file is there; --out names a folder for the report (made if missing)",
+            a.out.display()
+        )));
+    }
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     plots::init_font()?;
     let dir = a.out.as_path();

@@ -28,7 +28,7 @@ pub struct Args {
     #[arg(long, default_value = "04:00:00")]
     pub time: String,
     /// Extra `#SBATCH` lines, e.g. `--sbatch "--partition=short"` (repeatable).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub sbatch: Vec<String>,
     /// Also submit the script with `sbatch` (prints the job id).
     #[arg(long)]

@@ -155,25 +155,6 @@ pub fn main(a: Args) -> Result<(), CliError> {
             );
         }
     }
-    if a.dry_run {
-        for t in &mine {
-            outln!(
-                "trial {} seed {} {}",
-                t.index,
-                t.seed,
-                sweep.sets[t.set].key
-            );
-        }
-        outln!(
-            "{}: {} parameter sets x {} seeds = {} trials, {} in this shard",
-            sweep.name,
-            sweep.sets.len(),
-            sweep.seeds.len(),
-            all.len(),
-            mine.len()
-        );
-        return Ok(());
-    }
     // Each parameter set's provenance (the seed is not part of the scenario's digest).
     let provenance: Vec<Provenance> = sweep
         .sets
@@ -184,6 +165,54 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .iter()
         .map(|p| p.scenario_sha256.as_str())
         .collect();
+    if a.dry_run {
+        // The trials a real run would run: those the store (if there is one) lacks, after the
+        // same checks of the store, which is left untouched.
+        let stored = if db.exists() {
+            Store::open_existing(&db)?.would_bind(
+                &sweep,
+                &db,
+                &sha256_hex(all_scenarios.join("\n").as_bytes()),
+                a.allow_mixed,
+            )?
+        } else {
+            HashSet::new()
+        };
+        let mut to_run = 0;
+        for t in &mine {
+            if stored.contains(&(sweep.sets[t.set].key.clone(), t.seed)) {
+                continue;
+            }
+            to_run += 1;
+            if a.limit.is_some_and(|l| to_run > l) {
+                continue;
+            }
+            outln!(
+                "trial {} seed {} {}",
+                t.index,
+                t.seed,
+                sweep.sets[t.set].key
+            );
+        }
+        let limited = a.limit.map_or(to_run, |l| to_run.min(l));
+        outln!(
+            "{}: {} parameter sets x {} seeds = {} trials, {} in this shard, {} already in {}, {} to run{}",
+            sweep.name,
+            sweep.sets.len(),
+            sweep.seeds.len(),
+            all.len(),
+            mine.len(),
+            mine.len() - to_run,
+            db.display(),
+            limited,
+            if limited < to_run {
+                format!(" (--limit {}; {to_run} missing)", a.limit.unwrap_or(0))
+            } else {
+                String::new()
+            }
+        );
+        return Ok(());
+    }
     let mut store = Store::open(&db)?;
     store.bind(
         &sweep,
@@ -249,12 +278,17 @@ pub fn main(a: Args) -> Result<(), CliError> {
         .progress_chars("=> "),
     );
     if skipped > 0 && !a.quiet {
+        let missing = mine.len() - skipped;
         eprintln!(
-            "{}: {skipped} of {} trials already in {}, running the other {}",
+            "{}: {skipped} of {} trials already in {}, running {}",
             sweep.name,
             mine.len(),
             db.display(),
-            todo.len()
+            if todo.len() < missing {
+                format!("{} of the other {missing} (--limit)", todo.len())
+            } else {
+                format!("the other {missing}")
+            }
         );
     }
     let pool = rayon::ThreadPoolBuilder::new()

@@ -57,6 +57,8 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Run a scenario headless (one seed, or a range of seeds in parallel).
+    #[command(override_usage = "formica run [OPTIONS] <SCENARIO>\n       \
+                                formica run --db <STUDY.db> --trial <N|A..B|all>")]
     Run(cmd_run::Args),
     /// Validate a scenario file and describe what it sets up.
     Check(cmd_check::Args),
@@ -73,8 +75,14 @@ enum Command {
     /// Write (and optionally submit) a Slurm job-array script for a sweep.
     Slurm(cmd_slurm::Args),
     /// Serve a live viewer of a scenario on 127.0.0.1.
+    #[command(override_usage = "formica serve [OPTIONS] <SCENARIO>\n       \
+                                formica serve --db <STUDY.db> --trial <N> [OPTIONS]")]
     Serve(cmd_serve::Args),
     /// Render a run to an animated GIF or an MP4 video.
+    #[command(
+        override_usage = "formica record [OPTIONS] --out <OUT> <SCENARIO>\n       \
+                                formica record --db <STUDY.db> --trial <N> --out <OUT> [OPTIONS]"
+    )]
     Record(cmd_record::Args),
     /// Print the JSON Schema of scenario or sweep files (for editors), or the scenario reference.
     Schema(schema::Args),

@@ -336,6 +336,27 @@ impl Store {
         self.adopt(sweep, path, "--db")
     }
 
+    /// What [`Store::bind`] would say of this store, and the trials it holds, without writing
+    /// anything (for `sweep --dry-run`): the binding runs in a transaction that is rolled back.
+    pub fn would_bind(
+        &self,
+        sweep: &Sweep,
+        path: &Path,
+        scenarios_sha256: &str,
+        allow_mixed: bool,
+    ) -> Result<HashSet<(String, u64)>, CliError> {
+        self.conn
+            .execute_batch("BEGIN")
+            .with_context(|| format!("{}: starting a transaction", path.display()))?;
+        let result = self
+            .bind(sweep, path, scenarios_sha256, allow_mixed)
+            .and_then(|()| self.done());
+        self.conn
+            .execute_batch("ROLLBACK")
+            .with_context(|| format!("{}: rolling back", path.display()))?;
+        result
+    }
+
     /// Records that this store holds trials of `sweep` (its digest, name, file and varied keys,
     /// with a column each), or refuses a store of a different sweep, telling the user to use
     /// another `what` (`--db` for a sweep).

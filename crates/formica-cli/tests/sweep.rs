@@ -135,6 +135,40 @@ fn killed_sweep_resumes_to_the_rows_of_an_uninterrupted_one() {
         !finished_early && (3..36).contains(&stored),
         "the sweep was not killed halfway: {stored} of 36 trials stored"
     );
+    // A dry run lists just the missing trials, and leaves the store as it was.
+    let before = rows(&killed);
+    let out = ok(sweep(&file, &killed, &["--dry-run"]));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        text.lines().filter(|l| l.starts_with("trial ")).count(),
+        36 - stored,
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!(
+            "{stored} already in {}, {} to run",
+            killed.display(),
+            36 - stored
+        )),
+        "{text}"
+    );
+    assert_eq!(rows(&killed), before);
+    // ... and refuses a store of another sweep, as the real run would.
+    let other = dir.join("other.toml");
+    std::fs::write(
+        &other,
+        std::fs::read_to_string(&file)
+            .unwrap()
+            .replace("duration_s = 200", "duration_s = 100"),
+    )
+    .unwrap();
+    let out = sweep(&other, &killed, &["--dry-run"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.code() == Some(2) && err.contains("holds a different sweep"),
+        "{err}"
+    );
+    assert_eq!(rows(&killed), before);
     // Rerun: only the missing trials run, and the rows equal the uninterrupted run's.
     let out = ok(sweep(&file, &killed, &[]));
     let text = String::from_utf8_lossy(&out.stdout);
@@ -774,7 +808,14 @@ fn outputs_never_overwrite_the_store_or_sweep_file_being_read() {
     ok(sweep(&file, &db, &["--limit", "1"]));
     let (store, sweep_text) = (std::fs::read(&db).unwrap(), std::fs::read(&file).unwrap());
     let sub = dir.join("sub").join("..").join("s.db");
-    let refused: [Vec<std::ffi::OsString>; 6] = [
+    let refused: [Vec<std::ffi::OsString>; 7] = [
+        // A report goes into a folder: not over the store it reads.
+        vec![
+            "report".into(),
+            db.clone().into(),
+            "--out".into(),
+            db.clone().into(),
+        ],
         vec![
             "export".into(),
             db.clone().into(),
@@ -862,10 +903,13 @@ fn slurm_writes_a_job_array_over_the_shards() {
         .arg(dir.join("shards"))
         .arg("--script")
         .arg(&script)
+        // As the documentation writes it: a value that starts with dashes.
+        .args(["--sbatch", "--partition=short"])
         .output()
         .unwrap());
     let s = std::fs::read_to_string(&script).unwrap();
     assert!(s.starts_with("#!/bin/bash\n"), "{s}");
+    assert!(s.contains("#SBATCH --partition=short\n"), "{s}");
     assert!(s.contains("#SBATCH --array=0-3\n"), "{s}");
     assert!(s.contains("--shard \"$SLURM_ARRAY_TASK_ID/4\""), "{s}");
     assert!(s.contains("shard-$SLURM_ARRAY_TASK_ID.db"), "{s}");
