@@ -506,20 +506,16 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
             "{}",
             serde_json::to_string(&summary).context("encoding JSON")?
         );
-    } else if let (Some(rate), Some([lo, hi]), Some(eff)) = (
-        summary.success_rate,
-        summary.success_ci95,
-        summary.mean_path_efficiency,
-    ) {
+    } else if let (Some(rate), Some([lo, hi])) = (summary.success_rate, summary.success_ci95) {
         outln!(
-            "{}: {} trials, success {:.1} % (95 % CI {:.1}-{:.1} %), median time {}, mean path efficiency {:.3}",
+            "{}: {} trials, success {:.1} % (95 % CI {:.1}-{:.1} %), median time {}, mean path efficiency {}",
             summary.scenario,
             summary.trials,
             100.0 * rate,
             100.0 * lo,
             100.0 * hi,
             summary.median_time_s.map_or("n/a (under half succeeded)".into(), |t| format!("{t:.1} s")),
-            eff
+            summary.mean_path_efficiency.map_or("n/a (none succeeded)".into(), |e| format!("{e:.3} (successes)"))
         );
     } else {
         outln!("{}", unjudged_summary(&sc.name, &results));

@@ -61,7 +61,9 @@ pub struct Summary {
     /// Median completion time, failures censored (null if under half succeeded, or no
     /// success rule).
     pub median_time_s: Option<f64>,
-    /// Mean path efficiency over all trials (null as `success_rate`).
+    /// Mean path efficiency of the successful trials, as reports give it (null as
+    /// `success_rate`, or if none succeeded: a failed trial's efficiency measures a path that
+    /// never reached the goal).
     pub mean_path_efficiency: Option<f64>,
     /// Counts of each outcome.
     pub outcomes: std::collections::BTreeMap<String, usize>,
@@ -85,8 +87,10 @@ pub fn summarize(scenario: &str, results: &[RunResult], judged: bool) -> Summary
         success_rate: judged.then_some(if n > 0 { k as f64 / n as f64 } else { 0.0 }),
         success_ci95: judged.then(|| wilson95(k, n)),
         median_time_s: censored_median(results).filter(|_| judged),
-        mean_path_efficiency: judged
-            .then(|| mean_of(results, |r| Some(r.path_efficiency)).unwrap_or(0.0)),
+        mean_path_efficiency: mean_of(results, |r| {
+            (r.outcome == Outcome::Success).then_some(r.path_efficiency)
+        })
+        .filter(|_| judged),
         outcomes,
     }
 }
@@ -102,6 +106,25 @@ mod tests {
         assert!((lo - 0.8519).abs() < 1e-3, "{lo}");
         assert!((hi - 0.9877).abs() < 1e-3, "{hi}");
         assert_eq!(wilson95(0, 0), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn path_efficiency_is_the_mean_of_the_successes() {
+        let r = |outcome, path_efficiency| RunResult {
+            outcome,
+            path_efficiency,
+            ..RunResult::default()
+        };
+        // A box that never moved still has a small efficiency from its jitter.
+        let rs = [
+            r(Outcome::Success, 0.9),
+            r(Outcome::Timeout, 0.1),
+            r(Outcome::Success, 0.7),
+        ];
+        let eff = summarize("s", &rs, true).mean_path_efficiency.unwrap();
+        assert!((eff - 0.8).abs() < 1e-12, "{eff}");
+        assert_eq!(summarize("s", &rs[1..2], true).mean_path_efficiency, None);
+        assert_eq!(summarize("s", &rs, false).mean_path_efficiency, None);
     }
 
     #[test]
