@@ -87,14 +87,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
             friction,
         );
         if o.movable {
-            let pushers: Vec<String> = w
-                .groups
-                .iter()
-                .map(|g| {
-                    let n = (friction / g.model.max_force).floor() as usize + 1;
-                    format!("{} {}", n, g.model_name)
-                })
-                .collect();
+            let mut pushers: Vec<String> = Vec::new();
+            for g in &w.groups {
+                let n = (friction / g.model.max_force).floor() as usize + 1;
+                let p = format!("{} {}", n, g.model_name);
+                if !pushers.contains(&p) {
+                    pushers.push(p);
+                }
+            }
             if !pushers.is_empty() {
                 outln!(
                     "    needs at least {} pushing together to move",
@@ -169,14 +169,29 @@ pub fn main(a: Args) -> Result<(), CliError> {
              time limit); wall: {}",
             s.stop.on_wall
         );
-    } else if let Some(r) = run.goal_radius() {
+    } else if !sc.has_success_rule() {
         outln!(
-            "  stop: success within {r:.3} m of the goal; wall: {}",
+            "  stop: {}, so no trial succeeds (each ends by the wall rule or at its time \
+             limit); wall: {}",
+            if s.stop.on_goal {
+                "no movable object to carry to the goal"
+            } else {
+                "stop.on_goal is off"
+            },
+            s.stop.on_wall
+        );
+    } else if let (Some(r), Some(t)) = (run.goal_radius(), w.target) {
+        outln!(
+            "  stop: success when object {t} \"{}\" is within {r:.3} m of the goal; wall: {}",
+            w.objects[t].name,
             s.stop.on_wall
         );
         if let Some(warning) = goal_reached_warning(w, r) {
             outln!("    warning: {warning}");
         }
+    }
+    for warning in goal_warnings(&sc, w) {
+        outln!("    warning: {warning}");
     }
     Ok(())
 }
@@ -261,7 +276,81 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
     (0..w.objects.len())
         .flat_map(|i| object_warnings(sc, w, i))
         .chain((0..sc.spec.robots.len()).flat_map(|g| group_warnings(sc, Some(w), g)))
+        .chain(goal_warnings(sc, w))
         .collect()
+}
+
+/// Whether a robot group runs a controller that carries the target object to the goal.
+fn transports(sc: &Scenario) -> bool {
+    sc.spec.robots.iter().any(|g| {
+        matches!(
+            g.get_ref().controller.get_ref().as_str(),
+            "occlusion" | "fill-transport"
+        )
+    })
+}
+
+/// Whether `p` lies inside the polygon `poly` (crossing count).
+fn inside(poly: &[Vec2], p: Vec2) -> bool {
+    let mut v = false;
+    for k in 0..poly.len() {
+        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+        if (a.y > p.y) != (b.y > p.y) && p.x < a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x) {
+            v = !v;
+        }
+    }
+    v
+}
+
+/// A wall's name in messages: the arena's four, then `walls[k]`.
+fn wall_name(k: usize) -> String {
+    if k < 4 {
+        "an arena wall".to_string()
+    } else {
+        format!("walls[{}]", k - 4)
+    }
+}
+
+/// Warnings about the goal that `check`, `run` and `sweep` print (each found with an audit's
+/// scenario that failed every run without a word):
+/// - the goal light stands inside a wall at least as tall as it: the wall hides it from every
+///   robot (10 of 10 runs pushed the box away);
+/// - several objects are movable: each carries a beacon and robots push whichever they find,
+///   but success measures the target alone.
+fn goal_warnings(sc: &Scenario, w: &World) -> Vec<String> {
+    let mut out = Vec::new();
+    let (Some(gi), Some(goal)) = (w.goal_light, w.goal()) else {
+        return out;
+    };
+    let light_h = w.lights[gi].height;
+    for (k, wall) in w.walls.iter().enumerate() {
+        if wall.height >= light_h && inside(&wall.outline(), goal) {
+            out.push(format!(
+                "the goal light (lights.{gi}, {light_h} m high) stands inside {}, {} m tall: \
+                 the wall hides it from every robot, so transport cannot work (move the light \
+                 off the wall, or raise it above the wall)",
+                wall_name(k),
+                wall.height
+            ));
+        }
+    }
+    let movable: Vec<usize> = (0..w.objects.len())
+        .filter(|&i| w.objects[i].movable)
+        .collect();
+    if let (true, [_, _, ..], Some(t)) = (transports(sc), movable.as_slice(), w.target) {
+        let names: Vec<String> = movable
+            .iter()
+            .map(|&i| format!("{i} \"{}\"", w.objects[i].name))
+            .collect();
+        out.push(format!(
+            "objects {} are movable: each carries a beacon and robots push whichever they \
+             find, but success measures object {t} \"{}\" alone (set movable = false on \
+             objects meant as obstacles)",
+            names.join(", "),
+            w.objects[t].name
+        ));
+    }
+    out
 }
 
 /// The warnings about object `i` that `check` prints under the object and `run` and `sweep`
@@ -270,7 +359,7 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
 fn object_warnings(sc: &Scenario, w: &World, i: usize) -> Vec<String> {
     [
         pieces_warning(w, i),
-        goal_out_of_reach_warning(sc, w, i),
+        goal_out_of_reach_warning(sc, w, i).or_else(|| goal_cut_off_warning(w, i)),
         too_heavy_warning(sc, w, i),
     ]
     .into_iter()
@@ -337,6 +426,27 @@ fn goal_out_of_reach_warning(sc: &Scenario, w: &World, i: usize) -> Option<Strin
     ))
 }
 
+/// For the target of the goal: a warning if walls and fixed objects leave its centre no way to
+/// the goal, even turned to its narrowest ([`formica::experiment::object_path`]): a wall
+/// across the arena, or gaps narrower than the object.
+fn goal_cut_off_warning(w: &World, i: usize) -> Option<String> {
+    let goal = w.goal()?;
+    if w.target != Some(i) || !w.objects[i].movable {
+        return None;
+    }
+    let from = w.object_center(i);
+    formica::experiment::object_path(w, i, from, goal)
+        .is_none()
+        .then(|| {
+            format!(
+                "walls (or fixed objects) leave object {i} \"{}\" no way to the goal light, \
+                 even turned to its narrowest: no trial can succeed (widen the gaps, or move \
+                 the light or the object)",
+                w.objects[i].name
+            )
+        })
+}
+
 /// Object `i`'s floor friction (N): the force it takes to slide it, `floor_mu m g` (the
 /// world holds one object per `[[objects]]` entry, in order).
 fn floor_friction(sc: &Scenario, w: &World, i: usize) -> f32 {
@@ -373,6 +483,7 @@ fn group_warnings(sc: &Scenario, w: Option<&World>, g: usize) -> Vec<String> {
         goal_color_warning(sc, g),
         no_goal_warning(sc, g),
         w.and_then(|w| camera_range_warning(sc, w, g)),
+        led_clash_warning(sc, g),
     ]
     .into_iter()
     .flatten()
@@ -434,6 +545,25 @@ fn light_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
         }
     }
     out
+}
+
+/// For a group that fills (`filling`, `fill-transport`): a warning if another group runs
+/// `occlusion`, whose robots light blue while they circle the object: fillers take a blue LED
+/// for an attached robot and stop beside it (an audit's U with 12 `occlusion` foot-bots
+/// beside 18 fillers: 3 to 8 false stops a run, 4 of 10 delivered; each group alone 10).
+fn led_clash_warning(sc: &Scenario, g: usize) -> Option<String> {
+    let controller = |k: usize| sc.spec.robots[k].get_ref().controller.get_ref().clone();
+    let mine = controller(g);
+    if !matches!(mine.as_str(), "filling" | "fill-transport") {
+        return None;
+    }
+    let h = (0..sc.spec.robots.len()).find(|&h| h != g && controller(h) == "occlusion")?;
+    Some(format!(
+        "robots.{h} runs occlusion, whose robots light blue while they circle the object, and \
+         robots.{g}'s {mine} takes a blue LED for a robot attached to the object: its robots \
+         will stop beside circling ones, outside the object's cavities (run one controller, \
+         or give the groups separate arenas)"
+    ))
 }
 
 /// [`run_warnings`] for a scenario whose world is not built yet: builds it with the file's

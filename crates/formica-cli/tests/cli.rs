@@ -1,7 +1,7 @@
 //! The `formica` command as users call it.
 
 mod common;
-use common::{formica, repo};
+use common::{formica, ok, repo};
 
 fn tmp(name: &str) -> std::path::PathBuf {
     common::tmp("cli", name)
@@ -373,7 +373,12 @@ fn set_overrides_any_scenario_key_and_bad_values_are_input_errors() {
     let out = formica()
         .arg("run")
         .arg(repo("scenarios/seed-transport.toml"))
-        .args(["--set", "run.duration_s=5", "--set", "robots.0.params.nope=1"])
+        .args([
+            "--set",
+            "run.duration_s=5",
+            "--set",
+            "robots.0.params.nope=1",
+        ])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
@@ -532,6 +537,49 @@ fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
     // A goal light far beyond the east wall, and one just beyond it.
     assert!(warned(&["lights.0.at=[9.0, 0.0]"], "no trial can succeed"));
     assert!(warned(&["lights.0.at=[3.2, 0.0]"], "outside the arena"));
+    // A goal light inside the east wall, as tall as the light: hidden from every robot.
+    assert!(warned(
+        &["lights.0.at=[3.0, 0.0]"],
+        "stands inside an arena wall"
+    ));
+    assert!(!warned(
+        &["lights.0.at=[3.0, 0.0]", "lights.0.height=0.6"],
+        "stands inside"
+    ));
+    // A wall across the arena between box and goal; a wall with a gap the box fits through.
+    let wall = |size: &str| {
+        text.replace(
+            "[[robots]]",
+            &format!("[[walls]]\nat = [1.0, 0.0]\nsize = {size}\n\n[[robots]]"),
+        )
+    };
+    assert!(check_text(&dir, &wall("[0.1, 4.0]")).contains("no way to the goal light"));
+    // (3.0 m long: gaps of 0.45 m, narrower than the 0.5 m box, which the check says too.)
+    assert!(check_text(&dir, &wall("[0.1, 3.0]")).contains("no way to the goal light"));
+    assert!(!check_text(&dir, &wall("[0.1, 2.0]")).contains("no way to the goal light"));
+    // A second movable box: robots push either, success measures the first.
+    let two = text.replace(
+        "[[robots]]",
+        "[[objects]]\nname = \"other\"\nat = [1.0, 1.2]\nshape = { box = [0.3, 0.3] }\n\n[[robots]]",
+    );
+    assert!(check_text(&dir, &two)
+        .contains("objects 0 \"box\", 1 \"other\" are movable: each carries a beacon"));
+    // Fillers beside `occlusion` robots, whose circling LED is the fillers' "attached" blue.
+    let mixed = text.replace(
+        "[run]",
+        "[[robots]]\ncount = 5\ncontroller = \"fill-transport\"\n\
+         placement = { random = { min = [-2.0, -2.0], max = [2.0, 2.0] } }\n\n[run]",
+    );
+    assert!(check_text(&dir, &mixed).contains("robots.0 runs occlusion, whose robots light blue"));
+    // A target nothing can push: check says no trial succeeds, as run does.
+    let out = ok(formica()
+        .arg("check")
+        .arg(&scenario)
+        .args(["--set", "objects.0.movable=false"])
+        .output()
+        .unwrap());
+    assert!(String::from_utf8_lossy(&out.stdout)
+        .contains("stop: no movable object to carry to the goal, so no trial succeeds"));
     // `run` prints the same warnings before it runs.
     let out = formica()
         .arg("run")
@@ -802,7 +850,8 @@ fn check_and_run_say_when_no_light_is_the_goal() {
     let seed = std::fs::read_to_string(repo("scenarios/seed-transport.toml")).unwrap();
     let with_goal = check_text(&dir, &seed);
     assert!(
-        with_goal.contains("stop: success within") && !with_goal.contains("no light is the goal"),
+        with_goal.contains("stop: success when object 0 \"box\" is within")
+            && !with_goal.contains("no light is the goal"),
         "{with_goal}"
     );
     let no_goal = seed.replace("goal = true", "goal = false");
@@ -903,15 +952,13 @@ fn a_physics_step_too_coarse_for_contacts_is_refused_unless_forced() {
 fn one_seed_given_to_seeds_runs_that_seed() {
     let sc = repo("scenarios/seed-transport.toml");
     let run = |args: &[&str]| {
-        let out = common::ok(
-            formica()
-                .arg("run")
-                .arg(&sc)
-                .args(["--duration", "2", "--json"])
-                .args(args)
-                .output()
-                .unwrap(),
-        );
+        let out = ok(formica()
+            .arg("run")
+            .arg(&sc)
+            .args(["--duration", "2", "--json"])
+            .args(args)
+            .output()
+            .unwrap());
         let text = String::from_utf8_lossy(&out.stdout).to_string();
         let first = text.lines().next().unwrap().to_string();
         let v: serde_json::Value = serde_json::from_str(&first).unwrap();

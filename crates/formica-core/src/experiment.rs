@@ -400,6 +400,27 @@ impl LoopFunctions for TransportHooks {
 /// (half the smaller side of its outline's bounding box), turning only where the grown object
 /// fits inside the arena ([`visibility::shortest_path`](crate::visibility::shortest_path)).
 pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
+    let (obstacles, bounds) = grown_obstacles(world, t);
+    crate::visibility::shortest_path(xy(from), xy(to), &obstacles, bounds)
+}
+
+/// [`optimal_path`], or `None` if the walls and fixed objects leave object `t`'s centre no way
+/// from `from` to `to`, even turned to its narrowest (its half-width is half the smaller side
+/// of its outline's bounding box): a goal cut off by a wall.
+pub fn object_path(world: &World, t: usize, from: Vec2, to: Vec2) -> Option<f64> {
+    let (obstacles, bounds) = grown_obstacles(world, t);
+    crate::visibility::path_length(xy(from), xy(to), &obstacles, bounds)
+}
+
+fn xy(v: Vec2) -> [f64; 2] {
+    [f64::from(v.x), f64::from(v.y)]
+}
+
+/// Convex polygons in the plane, and a box (min, max corners).
+type Obstacles = (Vec<Vec<[f64; 2]>>, ([f64; 2], [f64; 2]));
+
+/// The obstacles to object `t`'s centre ([`optimal_path`]) and the box its turns stay in.
+fn grown_obstacles(world: &World, t: usize) -> Obstacles {
     let pts: Vec<Vec2> = world.objects[t].outlines().into_iter().flatten().collect();
     let (lo, hi) = crate::geometry::bounds(&pts);
     let r = f64::from(((hi - lo).x.min((hi - lo).y) / 2.0).max(0.0));
@@ -464,8 +485,7 @@ pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
         [f64::from(c.x) - half[0], f64::from(c.y) - half[1]],
         [f64::from(c.x) + half[0], f64::from(c.y) + half[1]],
     );
-    let p = |v: Vec2| [f64::from(v.x), f64::from(v.y)];
-    crate::visibility::shortest_path(p(from), p(to), &obstacles, bounds)
+    (obstacles, bounds)
 }
 
 /// The counter-clockwise convex polygon `pts` grown by `r`: each edge moved out by `r`, the

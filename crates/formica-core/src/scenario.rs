@@ -1466,6 +1466,19 @@ impl Scenario {
             }
             self.wall_part(i)?;
         }
+        // One goal: a second `goal = true` used to be taken for an ordinary light, silently.
+        let goals: Vec<usize> = (0..s.lights.len())
+            .filter(|&i| s.lights[i].get_ref().goal == Some(true))
+            .collect();
+        if let [first, second, ..] = goals[..] {
+            return Err(self.error_at_key(
+                &format!("lights[{second}].goal"),
+                format!(
+                    "lights[{second}]: a second goal light (lights[{first}] is the goal); a \
+                     run has one goal: set goal = true on one light only"
+                ),
+            ));
+        }
         for (i, l) in s.lights.iter().enumerate() {
             let ls = l.get_ref();
             if !(ls.height >= 0.0 && ls.intensity > 0.0) {
@@ -1806,6 +1819,13 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         assert_eq!(line, MIN.lines().count() + 4);
         assert!(
             msg.contains("lights[0]") && msg.contains("intensity"),
+            "{msg}"
+        );
+        let goal = "[[lights]]\nat = [1.0, 0.0]\ngoal = true\n";
+        let (line, msg) = err(&format!("{MIN}\n{goal}{goal}"));
+        assert_eq!(line, MIN.lines().count() + 7);
+        assert!(
+            msg.contains("lights[1]: a second goal light (lights[0] is the goal)"),
             "{msg}"
         );
         let wall = "[[walls]]\nat = [1.0, 0.0]\nsize = [0.0, 1.0]\n";

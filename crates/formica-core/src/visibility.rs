@@ -79,6 +79,12 @@ pub fn crosses(poly: &[P], a: P, b: P) -> bool {
 /// segments that leave that point (the object ended, or started, against it). The straight
 /// distance if nothing is in the way, or if no path exists.
 pub fn shortest_path(from: P, to: P, obstacles: &[Vec<P>], bounds: (P, P)) -> f64 {
+    path_length(from, to, obstacles, bounds).unwrap_or_else(|| dist(from, to))
+}
+
+/// [`shortest_path`], or `None` if the obstacles and the bounds leave no way from `from` to
+/// `to`.
+pub fn path_length(from: P, to: P, obstacles: &[Vec<P>], bounds: (P, P)) -> Option<f64> {
     let polys: Vec<Vec<P>> = obstacles.iter().map(|p| ccw(p.clone())).collect();
     let straight = dist(from, to);
     let skip_from: Vec<bool> = polys.iter().map(|p| inside(p, from)).collect();
@@ -95,7 +101,7 @@ pub fn shortest_path(from: P, to: P, obstacles: &[Vec<P>], bounds: (P, P)) -> f6
         .map(|(a, b)| *a || *b)
         .collect();
     if free(from, to, Some(&both)) {
-        return straight;
+        return Some(straight);
     }
     // Nodes: 0 = from, 1 = to, then the corners.
     let (lo, hi) = bounds;
@@ -135,7 +141,7 @@ pub fn shortest_path(from: P, to: P, obstacles: &[Vec<P>], bounds: (P, P)) -> f6
         .min_by(|&a, &b| best[a].total_cmp(&best[b]))
     {
         if u == 1 {
-            return best[1];
+            return Some(best[1]);
         }
         done[u] = true;
         for v in 0..n {
@@ -148,7 +154,7 @@ pub fn shortest_path(from: P, to: P, obstacles: &[Vec<P>], bounds: (P, P)) -> f6
             }
         }
     }
-    straight
+    None
 }
 
 #[cfg(test)]
@@ -194,6 +200,16 @@ mod tests {
         let d = shortest_path([-1.0, -1.0], [-1.0, 1.0], &[wall], arena);
         let leg = (1.5f64 * 1.5 + 0.75 * 0.75).sqrt();
         assert!((d - (2.0 * leg + 0.5)).abs() < 1e-4, "{d}");
+    }
+
+    #[test]
+    fn a_wall_across_the_bounds_leaves_no_way() {
+        let arena = ([-1.45, -1.45], [1.45, 1.45]);
+        let wall = rect(0.0, 0.0, 3.0, 0.2);
+        let no_way = path_length([0.0, -1.0], [0.0, 1.0], std::slice::from_ref(&wall), arena);
+        assert_eq!(no_way, None);
+        // The metric falls back to the straight distance.
+        assert_eq!(shortest_path([0.0, -1.0], [0.0, 1.0], &[wall], arena), 2.0);
     }
 
     #[test]
