@@ -361,6 +361,7 @@ fn object_warnings(sc: &Scenario, w: &World, i: usize) -> Vec<String> {
         pieces_warning(w, i),
         goal_out_of_reach_warning(sc, w, i).or_else(|| goal_cut_off_warning(w, i)),
         too_heavy_warning(sc, w, i),
+        too_light_warning(w, i),
     ]
     .into_iter()
     .flatten()
@@ -445,6 +446,32 @@ fn goal_cut_off_warning(w: &World, i: usize) -> Option<String> {
                 w.objects[i].name
             )
         })
+}
+
+/// A warning if movable object `i` is so much lighter than the heaviest robot that more solver
+/// iterations than the physics gives ([`formica::world::MAX_SOLVER_FACTOR`] times the usual)
+/// would be needed: robots squeezing it sink into it (Khepera IV into a 20 g box: 11 mm).
+fn too_light_warning(w: &World, i: usize) -> Option<String> {
+    let o = &w.objects[i];
+    let max = formica::world::MAX_SOLVER_FACTOR as f32;
+    let g = w
+        .groups
+        .iter()
+        .max_by(|a, b| a.model.mass.total_cmp(&b.model.mass))?;
+    (o.movable && g.model.mass > max * max * o.mass).then(|| {
+        format!(
+            "object {i} \"{}\" weighs {} kg, {:.0} times less than a {} ({} kg): robots \
+             squeezing it may sink up to a centimetre into it (contacts hold to within 5 mm up \
+             to {:.0} times; make it at least {:.2} kg)",
+            o.name,
+            o.mass,
+            g.model.mass / o.mass,
+            g.model_name,
+            g.model.mass,
+            max * max,
+            g.model.mass / (max * max)
+        )
+    })
 }
 
 /// Object `i`'s floor friction (N): the force it takes to slide it, `floor_mu m g` (the

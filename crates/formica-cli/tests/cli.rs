@@ -571,6 +571,15 @@ fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
          placement = { random = { min = [-2.0, -2.0], max = [2.0, 2.0] } }\n\n[run]",
     );
     assert!(check_text(&dir, &mixed).contains("robots.0 runs occlusion, whose robots light blue"));
+    // A 20 g box: lighter than the solver iterations keep contacts with (20 times a robot).
+    assert!(warned(
+        &["objects.0.mass=0.02"],
+        "robots squeezing it may sink"
+    ));
+    assert!(!warned(
+        &["objects.0.mass=0.05"],
+        "robots squeezing it may sink"
+    ));
     // A target nothing can push: check says no trial succeeds, as run does.
     let out = ok(formica()
         .arg("check")

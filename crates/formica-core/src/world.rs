@@ -168,23 +168,33 @@ pub fn sensor_warning(g: &Group) -> Option<String> {
     (!w.is_empty()).then(|| w.join("; "))
 }
 
-/// How many times the usual solver iterations the contacts of a swarm of `groups` need:
-/// `ceil(sqrt(heaviest / lightest robot))`, at most 4, so 1 for robots of one model. With
-/// the usual ones, a 1.6 kg foot-bot driving a 0.15 kg e-puck into the box sank it 18 mm into
-/// the box and 22 mm into other robots; with 4 times as many, under 5 mm, as in swarms of one
-/// model (`tests/physics_validation.rs`).
-fn solver_factor(groups: &[Group]) -> u32 {
+/// How many times the usual solver iterations the contacts of a swarm of `groups` among
+/// `objects` need: `ceil(sqrt(heaviest robot / lightest robot or movable object))`, at most
+/// 4, so 1 for robots of one model and objects heavier than them. With the usual ones, a
+/// 1.6 kg foot-bot driving a 0.15 kg e-puck into the box sank it 18 mm into the box and 22 mm
+/// into other robots, and Khepera IV sank 16 mm into a 50 g box they squeezed; with 4 times as
+/// many, under 5 mm (`tests/physics_validation.rs`).
+fn solver_factor(groups: &[Group], objects: &[Object]) -> u32 {
     let (lo, hi) = groups
         .iter()
         .map(|g| g.model.mass)
         .fold((f32::INFINITY, 0.0f32), |(lo, hi), m| {
             (lo.min(m), hi.max(m))
         });
+    // An object lighter than the robots is squeezed between them as a light robot is.
+    let lo = objects
+        .iter()
+        .filter(|o| o.movable)
+        .map(|o| o.mass)
+        .fold(lo, f32::min);
     if !(lo > 0.0 && hi > lo) {
         return 1;
     }
-    ((hi / lo).sqrt().ceil() as u32).clamp(1, 4)
+    ((hi / lo).sqrt().ceil() as u32).clamp(1, MAX_SOLVER_FACTOR)
 }
+
+/// The most [`solver_factor`] gives.
+pub const MAX_SOLVER_FACTOR: u32 = 4;
 
 /// One robot.
 pub struct Robot {
@@ -554,7 +564,7 @@ impl World {
                 factory,
             });
         }
-        let solver_factor = solver_factor(&groups);
+        let solver_factor = solver_factor(&groups, &objects);
 
         let mut world = World {
             physics,

@@ -643,3 +643,37 @@ fn a_free_coasting_robot_slows_at_its_rolling_resistance_along_and_its_traction_
         assert!(physics.angular_velocity(robot).abs() < 1e-6);
     }
 }
+
+#[test]
+fn khepera_squeezing_a_light_box_do_not_sink_into_it() {
+    // Two Khepera IV (0.4 kg, 1.5 N each) drive head-on at a 50 g box between them, and one
+    // drives it into a wall: with the solver iterations of heavy objects they sank 16 mm into
+    // it (an audit's 20 g box: 32 mm).
+    let mut worst: f32 = 0.0;
+    for (poses, wall) in [
+        ("[[-0.4, 0.0, 0.0], [0.4, 0.0, 3.14159]]", ""),
+        (
+            "[[-0.4, 0.0, 0.0]]",
+            "[[walls]]\nat = [0.2, 0.0]\nsize = [0.1, 2.0]\n",
+        ),
+    ] {
+        let mut run = world(&format!(
+            "{wall}[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [0.2, 0.2] }}\nmass = 0.05\nfloor_mu = 0.5\n\
+             [[robots]]\nmodel = \"khepera4\"\ncontroller = \"constant\"\nparams = {{ left = 0.3, right = 0.3 }}\nplacement = {{ poses = {poses} }}\n[stop]\non_wall = false\n"
+        ));
+        for _ in 0..100 {
+            run.world.step_with(|w| {
+                let object = w.objects[0].body;
+                for r in &w.robots {
+                    let sep = w.physics.separation(r.body.unwrap(), object);
+                    worst = worst.max(-sep);
+                }
+            });
+        }
+    }
+    println!(
+        "Khepera IV on a 50 g box: overlap at most {:.1} mm",
+        worst * 1000.0
+    );
+    assert!(worst < 0.005, "overlap {} mm", worst * 1000.0);
+}
