@@ -1205,7 +1205,7 @@ fn place_group(
                     sc.error_at(
                         span.clone(),
                         format!(
-                            "robots[{g}]: grid robot {} at ({:.3}, {:.3}) {m}",
+                            "robots[{g}]: robot {} of {count} on the grid, at ({:.3}, {:.3}), {m}",
                             k + 1,
                             p.x,
                             p.y
@@ -1222,7 +1222,7 @@ fn place_group(
                 free(p, placed).map_err(|m| {
                     sc.error_at(
                         span.clone(),
-                        format!("robots[{g}]: robot {} at ({}, {}) {m}", k + 1, q[0], q[1]),
+                        format!("robots[{g}]: poses[{k}] at ({}, {}) {m}", q[0], q[1]),
                     )
                 })?;
                 placed.push(p, r);
