@@ -927,10 +927,33 @@ pub struct Scenario {
 /// A scenario's file text and the overrides applied to it ([`Scenario::parse_with_overrides`]).
 #[derive(Debug)]
 struct Overridden {
-    base_text: String,
+    base_text: std::sync::Arc<str>,
     overrides: Vec<(String, toml::Value)>,
     origin_file: String,
-    origin_text: String,
+    origin_text: std::sync::Arc<str>,
+}
+
+thread_local! {
+    /// The texts of the last few [`Overridden`] made on this thread: a sweep's parameter sets
+    /// share their base scenarios' and the sweep file's texts instead of holding a copy each.
+    static RECENT_TEXTS: std::cell::RefCell<Vec<std::sync::Arc<str>>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// `text` as a shared text: one of the recent ones if it is the same.
+fn shared_text(text: &str) -> std::sync::Arc<str> {
+    RECENT_TEXTS.with(|recent| {
+        let mut recent = recent.borrow_mut();
+        if let Some(t) = recent.iter().find(|t| ***t == *text) {
+            return t.clone();
+        }
+        let t: std::sync::Arc<str> = std::sync::Arc::from(text);
+        if recent.len() == 16 {
+            recent.remove(0);
+        }
+        recent.push(t.clone());
+        t
+    })
 }
 
 /// An error at the override `key` (its position in the file the overrides come from).
@@ -1222,10 +1245,10 @@ impl Scenario {
             Ok(mut sc) => {
                 if !overrides.is_empty() {
                     sc.overridden = Some(std::sync::Arc::new(Overridden {
-                        base_text: text.to_string(),
+                        base_text: shared_text(text),
                         overrides: overrides.to_vec(),
                         origin_file: origin_file.to_string(),
-                        origin_text: origin_text.to_string(),
+                        origin_text: shared_text(origin_text),
                     }));
                 }
                 return Ok(sc);
@@ -1862,6 +1885,26 @@ placement = { random = { min = [0.0, -1.0], max = [2.0, 1.0] } }
         assert_eq!(s.object_parts(0).unwrap()[0].shape, Primitive::Disc(0.2));
         assert_eq!(s.name, "t");
         assert_eq!(s.file, "t.toml");
+    }
+
+    #[test]
+    fn parameter_sets_share_the_texts_they_were_made_from() {
+        // A sweep of 100,000 sets would otherwise hold 100,000 copies of its base scenario and
+        // of itself, kept only to place errors.
+        let sweep = "[vary]\n\"run.seed\" = [1, 2]\n".to_string();
+        let make = |seed: i64| {
+            Scenario::parse_with_overrides(
+                MIN,
+                "t.toml",
+                &[("run.seed".to_string(), toml::Value::Integer(seed))],
+                ("sweep.toml", &sweep),
+            )
+            .unwrap()
+        };
+        let (a, b) = (make(1), make(2));
+        let (a, b) = (a.overridden.unwrap(), b.overridden.unwrap());
+        assert!(std::sync::Arc::ptr_eq(&a.base_text, &b.base_text));
+        assert!(std::sync::Arc::ptr_eq(&a.origin_text, &b.origin_text));
     }
 
     #[test]
