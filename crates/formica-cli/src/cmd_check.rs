@@ -428,7 +428,7 @@ fn goal_out_of_reach_warning(sc: &Scenario, w: &World, i: usize) -> Option<Strin
 }
 
 /// For the target of the goal: a warning if walls and fixed objects leave its centre no way to
-/// the goal, even turned to its narrowest ([`formica::experiment::object_path`]): a wall
+/// the goal, even turned to its narrowest ([`formica::experiment::object_can_pass`]): a wall
 /// across the arena, or gaps narrower than the object.
 fn goal_cut_off_warning(w: &World, i: usize) -> Option<String> {
     let goal = w.goal()?;
@@ -436,16 +436,14 @@ fn goal_cut_off_warning(w: &World, i: usize) -> Option<String> {
         return None;
     }
     let from = w.object_center(i);
-    formica::experiment::object_path(w, i, from, goal)
-        .is_none()
-        .then(|| {
-            format!(
-                "walls (or fixed objects) leave object {i} \"{}\" no way to the goal light, \
+    (!formica::experiment::object_can_pass(w, i, from, goal)).then(|| {
+        format!(
+            "walls (or fixed objects) leave object {i} \"{}\" no way to the goal light, \
                  even turned to its narrowest: no trial can succeed (widen the gaps, or move \
                  the light or the object)",
-                w.objects[i].name
-            )
-        })
+            w.objects[i].name
+        )
+    })
 }
 
 /// A warning if movable object `i` is so much lighter than the heaviest robot that more solver

@@ -400,16 +400,22 @@ impl LoopFunctions for TransportHooks {
 /// (half the smaller side of its outline's bounding box), turning only where the grown object
 /// fits inside the arena ([`visibility::shortest_path`](crate::visibility::shortest_path)).
 pub fn optimal_path(world: &World, t: usize, from: Vec2, to: Vec2) -> f64 {
-    let (obstacles, bounds) = grown_obstacles(world, t);
+    let pts: Vec<Vec2> = world.objects[t].outlines().into_iter().flatten().collect();
+    let (lo, hi) = crate::geometry::bounds(&pts);
+    let r = f64::from(((hi - lo).x.min((hi - lo).y) / 2.0).max(0.0));
+    let (obstacles, bounds) = grown_obstacles(world, t, r);
     crate::visibility::shortest_path(xy(from), xy(to), &obstacles, bounds)
 }
 
-/// [`optimal_path`], or `None` if the walls and fixed objects leave object `t`'s centre no way
-/// from `from` to `to`, even turned to its narrowest (its half-width is half the smaller side
-/// of its outline's bounding box): a goal cut off by a wall.
-pub fn object_path(world: &World, t: usize, from: Vec2, to: Vec2) -> Option<f64> {
-    let (obstacles, bounds) = grown_obstacles(world, t);
-    crate::visibility::path_length(xy(from), xy(to), &obstacles, bounds)
+/// Whether the walls and fixed objects leave object `t`'s centre a way from `from` to `to`
+/// with the object turned to its narrowest (grown by half the least width of its convex hull,
+/// so an L can go through a gap diagonally): false for a goal cut off by a wall, or behind
+/// gaps narrower than the object.
+pub fn object_can_pass(world: &World, t: usize, from: Vec2, to: Vec2) -> bool {
+    let pts: Vec<Vec2> = world.objects[t].outlines().into_iter().flatten().collect();
+    let r = f64::from(crate::geometry::least_width(&pts) / 2.0);
+    let (obstacles, bounds) = grown_obstacles(world, t, r);
+    crate::visibility::path_length(xy(from), xy(to), &obstacles, bounds).is_some()
 }
 
 fn xy(v: Vec2) -> [f64; 2] {
@@ -419,11 +425,9 @@ fn xy(v: Vec2) -> [f64; 2] {
 /// Convex polygons in the plane, and a box (min, max corners).
 type Obstacles = (Vec<Vec<[f64; 2]>>, ([f64; 2], [f64; 2]));
 
-/// The obstacles to object `t`'s centre ([`optimal_path`]) and the box its turns stay in.
-fn grown_obstacles(world: &World, t: usize) -> Obstacles {
-    let pts: Vec<Vec2> = world.objects[t].outlines().into_iter().flatten().collect();
-    let (lo, hi) = crate::geometry::bounds(&pts);
-    let r = f64::from(((hi - lo).x.min((hi - lo).y) / 2.0).max(0.0));
+/// The obstacles to object `t`'s centre ([`optimal_path`]), grown by `r`, and the box its
+/// turns stay in.
+fn grown_obstacles(world: &World, t: usize, r: f64) -> Obstacles {
     let mut obstacles: Vec<Vec<[f64; 2]>> = Vec::new();
     for w in &world.walls[4..] {
         let (s, c) = crate::ops::sin_cos(w.yaw);

@@ -533,6 +533,26 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
     Ok(())
 }
 
+/// The least width of `points`' convex hull (m): the narrowest slot it passes through,
+/// turned as it best fits (rotating calipers over the hull's edges); 0 for fewer than three
+/// points or points on a line.
+pub fn least_width(points: &[Vec2]) -> f32 {
+    let hull = convex_hull(points);
+    let n = hull.len();
+    if n < 3 {
+        return 0.0;
+    }
+    (0..n)
+        .map(|k| {
+            let (a, b) = (hull[k], hull[(k + 1) % n]);
+            let e = (b - a).normalize_or_zero();
+            hull.iter()
+                .map(|p| (*p - a).perp_dot(e).abs())
+                .fold(0.0, f32::max)
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
 /// Convex hull of a point set, counter-clockwise. Non-finite points are left out; should
 /// parry's hull panic on degenerate input, a monotone-chain hull in `f64` stands in.
 pub fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
@@ -718,6 +738,30 @@ mod tests {
         assert!((signed_area(&hull) - 1.0).abs() < 1e-5);
     }
 
+    #[test]
+    fn least_width_of_a_box_an_l_and_a_disc() {
+        let b = Primitive::Box([0.6, 0.15]).outline(0);
+        assert!((least_width(&b) - 0.15).abs() < 1e-6);
+        // An L 0.4 m across with 0.1 m arms goes through a slot diagonally: its hull's width
+        // across the corner, (0.4 + 0.1) / sqrt(2) = 0.354 m.
+        let l = [
+            [0.0, 0.0],
+            [0.4, 0.0],
+            [0.4, 0.1],
+            [0.1, 0.1],
+            [0.1, 0.4],
+            [0.0, 0.4],
+        ];
+        let l: Vec<Vec2> = l.iter().map(|&[x, y]| Vec2::new(x, y)).collect();
+        assert!(
+            (least_width(&l) - 0.5 / 2f32.sqrt()).abs() < 1e-4,
+            "{}",
+            least_width(&l)
+        );
+        let d = Primitive::Disc(0.2).outline(64);
+        assert!((least_width(&d) - 0.4).abs() < 0.01);
+    }
+
     proptest! {
         #[test]
         fn wrap_angle_stays_in_range(a in -100.0f32..100.0) {
@@ -742,6 +786,25 @@ mod tests {
             prop_assert!(check_simple_polygon(&pts).is_ok());
             let hull = convex_hull(&pts);
             prop_assert!((signed_area(&hull) - signed_area(&pts)).abs() < 1e-4 * r * r + 1e-6);
+        }
+
+        /// The least width does not depend on how the shape is turned or moved, and no
+        /// direction gives a narrower projection of the points.
+        #[test]
+        fn least_width_is_the_narrowest_projection_whatever_the_turn(
+            pts in proptest::collection::vec((-1.0f32..1.0, -1.0f32..1.0), 3..12),
+            turn in -3.2f32..3.2, dx in -5.0f32..5.0,
+        ) {
+            let pts: Vec<Vec2> = pts.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
+            let w = least_width(&pts);
+            let pose = Pose::new(dx, -dx, turn);
+            let moved: Vec<Vec2> = pts.iter().map(|p| pose.world_from_local(*p)).collect();
+            prop_assert!((least_width(&moved) - w).abs() < 1e-3, "{} {}", least_width(&moved), w);
+            for k in 0..90 {
+                let d = ops::unit(k as f32 * std::f32::consts::PI / 90.0);
+                let (lo, hi) = pts.iter().map(|p| p.dot(d)).fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+                prop_assert!(hi - lo + 1e-4 >= w);
+            }
         }
 
         #[test]
