@@ -573,7 +573,7 @@ fn light_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
 }
 
 /// For a group that fills (`filling`, `fill-transport`): a warning if another group runs
-/// `occlusion`, whose robots light blue while they circle the object: fillers take a blue LED
+/// `occlusion` with its default `circle_led`, blue while they circle the object: fillers take a blue LED
 /// for an attached robot and stop beside it (an audit's U with 12 `occlusion` foot-bots
 /// beside 18 fillers: 3 to 8 false stops a run, 4 of 10 delivered; each group alone 10).
 fn led_clash_warning(sc: &Scenario, g: usize) -> Option<String> {
@@ -582,12 +582,19 @@ fn led_clash_warning(sc: &Scenario, g: usize) -> Option<String> {
     if !matches!(mine.as_str(), "filling" | "fill-transport") {
         return None;
     }
-    let h = (0..sc.spec.robots.len()).find(|&h| h != g && controller(h) == "occlusion")?;
+    let blue = |h: usize| {
+        formica::controller::parse_params_with_defaults::<occlusion::Params>(
+            group_params(sc, h).as_ref(),
+        )
+        .is_ok_and(|p| p.circle_led == formica::scenario::Color::Blue)
+    };
+    let h =
+        (0..sc.spec.robots.len()).find(|&h| h != g && controller(h) == "occlusion" && blue(h))?;
     Some(format!(
         "robots.{h} runs occlusion, whose robots light blue while they circle the object, and \
          robots.{g}'s {mine} takes a blue LED for a robot attached to the object: its robots \
-         will stop beside circling ones, outside the object's cavities (run one controller, \
-         or give the groups separate arenas)"
+         will stop beside circling ones, outside the object's cavities (set \
+         robots.{h}.params.circle_led = \"magenta\")"
     ))
 }
 

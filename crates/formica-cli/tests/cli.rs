@@ -571,6 +571,12 @@ fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
          placement = { random = { min = [-2.0, -2.0], max = [2.0, 2.0] } }\n\n[run]",
     );
     assert!(check_text(&dir, &mixed).contains("robots.0 runs occlusion, whose robots light blue"));
+    // ... unless they circle in another colour.
+    let magenta = mixed.replace(
+        "controller = \"occlusion\"",
+        "controller = \"occlusion\"\nparams = { circle_led = \"magenta\" }",
+    );
+    assert!(!check_text(&dir, &magenta).contains("light blue"));
     // A 20 g box: lighter than the solver iterations keep contacts with (20 times a robot).
     assert!(warned(
         &["objects.0.mass=0.02"],

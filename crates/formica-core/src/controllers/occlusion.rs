@@ -129,6 +129,10 @@ pub struct Params {
     pub circle_side: Option<Side>,
     /// Colour of the object as the camera sees it (camera perception). Default `green`.
     pub object_color: Color,
+    /// LED colour while circling the object. Default `blue`; pushing is `red`. Fillers
+    /// (`filling`, `fill-transport`) take a blue LED for a robot attached to the object: give
+    /// `occlusion` robots that share an arena with them another colour (`"magenta"`).
+    pub circle_led: Color,
     /// Light-ring contrast (strongest reading minus the mean of the weaker half) above which
     /// a hidden goal counts as visible again. Default 0.1.
     pub lit_contrast: f32,
@@ -243,6 +247,7 @@ impl Default for Params {
         Self {
             perception: Perception::Beacon,
             object_color: Color::Green,
+            circle_led: CIRCLE_LED,
             lit_contrast: 0.1,
             dark_contrast: 0.06,
             circle_side: None,
@@ -774,11 +779,11 @@ impl Occlusion {
     }
 
     /// Camera perception, the object out of sight: the bearing (robot frame) of the nearest
-    /// robot whose LED says it is at the object (pushing: red; circling: blue), as the scan
+    /// robot whose LED says it is at the object (pushing: red; circling: `circle_led`), as the scan
     /// shows it. Robots behind a crowd that hides the object join it so.
     fn toward_busy(&self, r: &Readings) -> Option<f32> {
         let object = self.p.object_color;
-        let busy = |c: Color| c != object && (c == PUSH_LED || c == CIRCLE_LED);
+        let busy = |c: Color| c != object && (c == PUSH_LED || c == self.p.circle_led);
         nearest_in_scan(r, &self.layout.scan_angles, busy).map(|(b, _)| b)
     }
 
@@ -1111,7 +1116,7 @@ pub const NOISE_FLOOR: f32 = 0.03;
 
 /// LED colours of pushing and circling robots, which camera robots read as "at the object".
 const PUSH_LED: Color = Color::Red;
-const CIRCLE_LED: Color = Color::Blue;
+const CIRCLE_LED: Color = Color::Blue; // the default of `circle_led`
 
 /// How far off the object's direction (rad) a pusher may stand and still be pushed through.
 const PUSHER_AHEAD_RAD: f32 = 0.5;
@@ -1561,7 +1566,7 @@ impl Controller for Occlusion {
         self.last_s = now;
         let led = match self.state {
             State::Push => PUSH_LED,
-            State::Circle => CIRCLE_LED,
+            State::Circle => self.p.circle_led,
             State::Escape => Color::Yellow,
             State::Search | State::Approach => Color::White,
             State::Relay => self.p.relay.goal_color,
