@@ -573,9 +573,10 @@ fn light_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
 }
 
 /// For a group that fills (`filling`, `fill-transport`): a warning if another group runs
-/// `occlusion` with its default `circle_led`, blue while they circle the object: fillers take a blue LED
-/// for an attached robot and stop beside it (an audit's U with 12 `occlusion` foot-bots
-/// beside 18 fillers: 3 to 8 false stops a run, 4 of 10 delivered; each group alone 10).
+/// `occlusion` with its default `circle_led`, blue while its robots circle the object:
+/// fillers take a blue LED for an attached robot and stop beside it
+/// (`scenarios/mixed-swarm-u.toml` with blue: 7 of 10 delivered, 3 to 9 false stops a run;
+/// with magenta, 10 and none).
 fn led_clash_warning(sc: &Scenario, g: usize) -> Option<String> {
     let controller = |k: usize| sc.spec.robots[k].get_ref().controller.get_ref().clone();
     let mine = controller(g);
