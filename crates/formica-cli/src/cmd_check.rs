@@ -290,18 +290,6 @@ fn transports(sc: &Scenario) -> bool {
     })
 }
 
-/// Whether `p` lies inside the polygon `poly` (crossing count).
-fn inside(poly: &[Vec2], p: Vec2) -> bool {
-    let mut v = false;
-    for k in 0..poly.len() {
-        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
-        if (a.y > p.y) != (b.y > p.y) && p.x < a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x) {
-            v = !v;
-        }
-    }
-    v
-}
-
 /// A wall's name in messages: the arena's four, then `walls[k]`.
 fn wall_name(k: usize) -> String {
     if k < 4 {
@@ -324,7 +312,7 @@ fn goal_warnings(sc: &Scenario, w: &World) -> Vec<String> {
     };
     let light_h = w.lights[gi].height;
     for (k, wall) in w.walls.iter().enumerate() {
-        if wall.height >= light_h && inside(&wall.outline(), goal) {
+        if wall.height >= light_h && wall.contains(goal) {
             out.push(format!(
                 "the goal light (lights.{gi}, {light_h} m high) stands inside {}, {} m tall: \
                  the wall hides it from every robot, so transport cannot work (move the light \

@@ -67,6 +67,11 @@ impl Wall {
             .map(|v| pose.world_from_local(v))
             .collect()
     }
+
+    /// Whether the point `p` lies inside its outline.
+    pub fn contains(&self, p: Vec2) -> bool {
+        rapier2d::parry::utils::point_in_poly2d(p, &self.outline())
+    }
 }
 
 /// An object in the world.

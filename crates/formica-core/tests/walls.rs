@@ -49,6 +49,29 @@ fn a_robot_driving_into_a_pillar_or_a_polygon_stops_at_its_face() {
 }
 
 #[test]
+fn a_wall_contains_the_points_inside_its_outline_only() {
+    // A box turned 90 degrees and a concave L: a point in the L's notch is outside it.
+    let walls = "[[walls]]\nat = [-1.0, 0.0]\nsize = [1.0, 0.2]\nyaw_deg = 90.0\n\
+                 [[walls]]\nat = [1.0, 0.0]\nshape = { polygon = [[0.0, 0.0], [0.4, 0.0], [0.4, 0.1], [0.1, 0.1], [0.1, 0.4], [0.0, 0.4]] }\n";
+    let run = start(&scenario(walls), 1);
+    let (bar, l) = (&run.world.walls[4], &run.world.walls[5]);
+    assert!(bar.contains(Vec2::new(-1.0, 0.45)) && !bar.contains(Vec2::new(-0.8, 0.0)));
+    assert!(l.contains(Vec2::new(1.05, 0.3)) && l.contains(Vec2::new(1.3, 0.05)));
+    assert!(!l.contains(Vec2::new(1.3, 0.3)));
+    // The arena's own walls: the east one is centred on x = 3.
+    assert!(run
+        .world
+        .walls
+        .iter()
+        .any(|w| w.contains(Vec2::new(3.0, 0.0))));
+    assert!(!run
+        .world
+        .walls
+        .iter()
+        .any(|w| w.contains(Vec2::new(2.0, 0.0))));
+}
+
+#[test]
 fn the_wall_rule_fails_a_run_whose_object_touches_a_pillar() {
     let sc = scenario(&format!(
         "{PILLAR}[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [0.3, 0.3] }}\nmass = 1.0\n{}[stop]\non_wall = true\non_goal = false\n[run]\nduration_s = 60\n",
