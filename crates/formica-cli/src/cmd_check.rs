@@ -280,14 +280,17 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
         .collect()
 }
 
+/// Whether `controller` (a built-in's name) carries the target object to the goal light.
+fn is_transport(controller: &str) -> bool {
+    matches!(controller, "occlusion" | "fill-transport")
+}
+
 /// Whether a robot group runs a controller that carries the target object to the goal.
 fn transports(sc: &Scenario) -> bool {
-    sc.spec.robots.iter().any(|g| {
-        matches!(
-            g.get_ref().controller.get_ref().as_str(),
-            "occlusion" | "fill-transport"
-        )
-    })
+    sc.spec
+        .robots
+        .iter()
+        .any(|g| is_transport(g.get_ref().controller.get_ref()))
 }
 
 /// A wall's name in messages: the arena's four, then `walls[k]`.
@@ -519,7 +522,7 @@ fn light_warnings(sc: &Scenario, w: &World, g: usize) -> Vec<String> {
         return out;
     };
     let group = &w.groups[g];
-    if !matches!(controller.as_str(), "occlusion" | "fill-transport") || !group.needs().light {
+    if !is_transport(controller) || !group.needs().light {
         return out;
     }
     let sensor_h = group.model.light_height;
@@ -605,8 +608,7 @@ pub(crate) fn warnings_before_run(sc: &Scenario) -> Vec<String> {
 /// [`goal_color_warning`]'s instead.)
 fn no_goal_warning(sc: &Scenario, g: usize) -> Option<String> {
     let controller = sc.spec.robots[g].get_ref().controller.get_ref();
-    let transports = matches!(controller.as_str(), "occlusion" | "fill-transport")
-        && goal_camera_params(sc, g).is_none();
+    let transports = is_transport(controller) && goal_camera_params(sc, g).is_none();
     (transports && sc.goal_light().is_none()).then(|| {
         format!(
             "robots.{g} runs {controller}, which carries the object to the goal light, but no \
