@@ -925,14 +925,29 @@ fn scan(
         }
         r[i]
     };
-    for (k, n) in scratch.near.iter().enumerate() {
+    // Robots first: they are cheap to cast and, being near, shorten the rays cast at walls and
+    // objects after them. Each bin keeps the nearest hit, the lowest index among equals, which
+    // does not depend on the order the bodies are tried in.
+    let robots_first = scratch
+        .near
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| matches!(n.tag, Tag::Robot(_)))
+        .chain(
+            scratch
+                .near
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| !matches!(n.tag, Tag::Robot(_))),
+        );
+    for (k, n) in robots_first {
         if n.tag == me {
             continue;
         }
         let try_bin = |i: usize, best: &mut [(f32, usize)]| {
             let limit = best[i].0.min(range);
             if let Some(t) = ctx.physics.ray_entry(n, center, ray(i), limit) {
-                if t < best[i].0 {
+                if t < best[i].0 || (t == best[i].0 && k < best[i].1) {
                     best[i] = (t, k);
                 }
             }
