@@ -945,7 +945,9 @@ fn scan(
             continue;
         }
         let try_bin = |i: usize, best: &mut [(f32, usize)]| {
-            let limit = best[i].0.min(range);
+            // Just past the best so far: a compound shape reports only hits strictly before
+            // its limit, and a body met at the same distance with a lower index must win.
+            let limit = best[i].0.next_up().min(range);
             if let Some(t) = ctx.physics.ray_entry(n, center, ray(i), limit) {
                 if t < best[i].0 || (t == best[i].0 && k < best[i].1) {
                     best[i] = (t, k);

@@ -465,3 +465,74 @@ fn every_reading_vector_lies_within_the_bounds_the_layout_gives() {
     assert_eq!(high[at("time_s")], 30.0);
     assert_eq!(high[at("theta")], std::f32::consts::PI);
 }
+
+#[test]
+fn the_colour_scan_equals_a_ray_cast_at_every_nearby_body() {
+    // A crowd round a concave object and by the walls: the scan, which casts each body only in
+    // the bins its box spans and robots before walls and objects, reads what casting every bin's
+    // ray at every body within range reads (nearest first, the lower index among equals).
+    use formica::physics::Tag;
+    use formica::scenario::Color;
+    let object = "[[objects]]\nmovable = false\nheight = 0.3\ncolor = \"green\"\nparts = [\n  { box = [0.5, 0.2], at = [0.0, 0.4] },\n  { box = [0.5, 0.2], at = [0.0, -0.4] },\n  { box = [0.2, 1.0], at = [0.25, 0.0], yaw_deg = 0.0 },\n]\n";
+    let mut poses = Vec::new();
+    for k in 0..36 {
+        let a = k as f32 * 0.53;
+        let r = 0.74 + 0.16 * (k % 5) as f32;
+        poses.push([r * a.cos(), r * a.sin(), a * 1.7]);
+    }
+    // In the cavity, and pressed to the east and north walls.
+    poses.extend([
+        [-0.05, 0.0, 0.3],
+        [-0.1, 0.18, 2.0],
+        [2.87, 1.0, 0.5],
+        [1.5, 1.87, 4.0],
+    ]);
+    let group = robot_group(
+        "constant",
+        "left = 0.0, right = 0.0, led = \"red\", scan = true",
+        &poses,
+    );
+    let sc = scenario(&format!(
+        "{object}{group}sensors = {{ noise = \"none\", scan_step = 0.0, scan_bins = 90, scan_range = 1.5 }}\n"
+    ));
+    let run = two_steps(&sc);
+    let w = &run.world;
+    let physics = &w.physics;
+    let (bins, range) = (90usize, 1.5f32);
+    let width = std::f32::consts::TAU / bins as f32;
+    let mut near = Vec::new();
+    let mut seen = [0usize; 3];
+    for (i, r) in w.robots.iter().enumerate() {
+        let pose = physics.pose(r.body.expect("released"));
+        let center = pose.position();
+        physics.nearby(center, range, &mut near);
+        for b in 0..bins {
+            let dir = ops::unit(pose.theta + width * b as f32);
+            let mut best: Option<(f32, Tag)> = None;
+            for n in near.iter().filter(|n| n.tag != Tag::Robot(i)) {
+                if let Some(t) = physics.ray_entry(n, center, dir, range) {
+                    if best.is_none_or(|(d, _)| t < d) {
+                        best = Some((t, n.tag));
+                    }
+                }
+            }
+            let (color, dist) = (r.readings.scan_color[b], r.readings.scan_range[b]);
+            let (want_color, want_dist) = match best {
+                None => (Color::Off, range),
+                Some((t, Tag::Wall(_))) => (Color::Grey, t.min(range)),
+                Some((t, Tag::Object(_))) => (Color::Green, t.min(range)),
+                Some((t, Tag::Robot(_))) => (Color::Red, t.min(range)),
+            };
+            assert_eq!((color, dist), (want_color, want_dist), "robot {i}, bin {b}");
+            if let Some((_, tag)) = best {
+                seen[match tag {
+                    Tag::Wall(_) => 0,
+                    Tag::Object(_) => 1,
+                    Tag::Robot(_) => 2,
+                }] += 1;
+            }
+        }
+    }
+    // The scene tests all three kinds.
+    assert!(seen.iter().all(|&n| n > 50), "{seen:?}");
+}
