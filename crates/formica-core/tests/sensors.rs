@@ -478,7 +478,8 @@ fn the_colour_scan_equals_a_ray_cast_at_every_nearby_body() {
     for k in 0..36 {
         let a = k as f32 * 0.53;
         let r = 0.74 + 0.16 * (k % 5) as f32;
-        poses.push([r * a.cos(), r * a.sin(), a * 1.7]);
+        let p = ops::unit(a) * r;
+        poses.push([p.x, p.y, a * 1.7]);
     }
     // In the cavity, and pressed to the east and north walls.
     poses.extend([
