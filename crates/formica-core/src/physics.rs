@@ -626,6 +626,7 @@ impl Physics {
     pub fn add_wall(&mut self, center: Vec2, size: Vec2, yaw: f32, index: usize) -> BodyId {
         self.add_static(
             SharedShape::cuboid(size.x / 2.0, size.y / 2.0),
+            None,
             Pose::new(center.x, center.y, yaw),
             Tag::Wall(index),
             WALL_FRICTION,
@@ -634,17 +635,29 @@ impl Physics {
 
     /// Adds a static wall of any shape at `pose`, tagged as wall `index`.
     pub fn add_wall_shape(&mut self, shape: SharedShape, pose: Pose, index: usize) -> BodyId {
-        self.add_static(shape, pose, Tag::Wall(index), WALL_FRICTION)
+        self.add_static(shape, None, pose, Tag::Wall(index), WALL_FRICTION)
     }
 
-    fn add_static(&mut self, shape: SharedShape, pose: Pose, tag: Tag, friction: f32) -> BodyId {
+    fn add_static(
+        &mut self,
+        shape: SharedShape,
+        mprops: Option<MassProperties>,
+        pose: Pose,
+        tag: Tag,
+        friction: f32,
+    ) -> BodyId {
         let body = self.world.bodies.insert(
             RigidBodyBuilder::fixed()
                 .translation(pose.position())
                 .rotation(pose.theta),
         );
+        let builder = ColliderBuilder::new(shape);
+        let builder = match mprops {
+            Some(m) => builder.mass_properties(m),
+            None => builder,
+        };
         let collider = self.world.colliders.insert_with_parent(
-            ColliderBuilder::new(shape)
+            builder
                 .friction(friction)
                 .friction_combine_rule(CoefficientCombineRule::Multiply)
                 .restitution(0.0)
@@ -666,17 +679,32 @@ impl Physics {
 
     /// Adds an object. Movable objects rub on the floor with Coulomb friction `floor_mu * m * g`
     /// and the ellipsoidal limit surface of their footprint (see the module documentation).
+    /// Their mass is spread evenly over the shape; `overlap`, the moments of the shape's union
+    /// where its parts overlap ([`crate::geometry::overlap_moments`]), keeps the overlap from
+    /// counting twice.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one object's set-up, field by field"
+    )]
     pub fn add_object(
         &mut self,
         shape: SharedShape,
+        overlap: Option<crate::geometry::AreaMoments>,
         pose: Pose,
         mass: f32,
         movable: bool,
         floor_mu: f32,
         index: usize,
     ) -> BodyId {
+        let mprops = overlap.map(|m| {
+            MassProperties::new(
+                Vec2::new(m.center[0] as f32, m.center[1] as f32),
+                mass,
+                (m.polar * f64::from(mass) / m.area) as f32,
+            )
+        });
         if !movable {
-            return self.add_static(shape, pose, Tag::Object(index), OBJECT_FRICTION);
+            return self.add_static(shape, mprops, pose, Tag::Object(index), OBJECT_FRICTION);
         }
         let area = shape.mass_properties(1.0).mass().max(1e-6);
         let body = self.world.bodies.insert(
@@ -685,9 +713,12 @@ impl Physics {
                 .rotation(pose.theta)
                 .can_sleep(false),
         );
+        let builder = match mprops {
+            Some(m) => ColliderBuilder::new(shape.clone()).mass_properties(m),
+            None => ColliderBuilder::new(shape.clone()).density(mass / area),
+        };
         let collider = self.world.colliders.insert_with_parent(
-            ColliderBuilder::new(shape.clone())
-                .density(mass / area)
+            builder
                 .friction(OBJECT_FRICTION)
                 .friction_combine_rule(CoefficientCombineRule::Multiply)
                 .restitution(0.0)

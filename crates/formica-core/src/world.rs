@@ -443,7 +443,15 @@ impl World {
             let os = o.get_ref();
             let pose = Pose::new(os.at[0], os.at[1], os.yaw_deg.to_radians());
             object_fits(sc, i, &shape, pose, &physics, c, Vec2::new(w, h))?;
-            let body = physics.add_object(shape, pose, os.mass, os.movable, os.floor_mu, i);
+            let body = physics.add_object(
+                shape,
+                crate::geometry::overlap_moments(&parts),
+                pose,
+                os.mass,
+                os.movable,
+                os.floor_mu,
+                i,
+            );
             objects.push(Object {
                 name: os.name.clone().unwrap_or_else(|| format!("object{i}")),
                 body,

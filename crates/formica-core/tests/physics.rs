@@ -146,3 +146,27 @@ proptest! {
         prop_assert!(last < 1e-9, "still moving after 8 s: {last} J");
     }
 }
+
+#[test]
+fn an_object_of_overlapping_parts_has_its_mass_spread_over_their_union() {
+    // The seed's U is written as three boxes whose arms run 0.1 m into its back: its centre of
+    // mass is the union's (x = -0.8833), not the parts' sum (-0.875, which
+    // counted the two 0.1 x 0.2 m overlaps twice), whether it moves or not.
+    for movable in ["true", "false"] {
+        let sc = shipped_with(
+            "fill-transport-u.toml",
+            &[
+                ("objects.0.movable", movable),
+                ("objects.0.yaw_deg", "30.0"),
+            ],
+        );
+        let run = start(&sc, 1);
+        let c = run.world.object_center(0);
+        let first = -(2.0 * 0.1 * 1.0 + 0.2 * 0.75 - 2.0 * 0.02 * 0.8);
+        let want = ops::unit(30f32.to_radians()) * (first / 0.36);
+        assert!(
+            (c - want).length() < 1e-4,
+            "movable = {movable}: {c} against {want}"
+        );
+    }
+}
