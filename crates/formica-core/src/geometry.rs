@@ -630,13 +630,14 @@ pub fn check_simple_polygon(pts: &[Vec2]) -> Result<(), ShapeError> {
             if adjacent {
                 continue;
             }
-            if segments_cross(pts[i], pts[(i + 1) % n], pts[j], pts[(j + 1) % n]) {
+            let (a, b, c, d) = (pts[i], pts[(i + 1) % n], pts[j], pts[(j + 1) % n]);
+            if segments_cross(a, b, c, d) {
+                // Edges named by their ends, not by number: vertices dropped before this
+                // check (repeated, or straight on) would shift the numbers.
                 return Err(ShapeError(format!(
-                    "polygon is self-intersecting: edge {}-{} crosses edge {}-{}",
-                    i + 1,
-                    (i + 1) % n + 1,
-                    j + 1,
-                    (j + 1) % n + 1
+                    "polygon is self-intersecting: the edge from ({}, {}) to ({}, {}) crosses \
+                     the edge from ({}, {}) to ({}, {})",
+                    a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y
                 )));
             }
         }
@@ -825,6 +826,20 @@ mod tests {
         let bowtie = [[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]];
         let err = Primitive::Polygon(bowtie.to_vec()).validate().unwrap_err();
         assert!(err.0.contains("self-intersecting"), "{err}");
+        // The crossing edges are named by their ends as written, whatever was dropped before
+        // the check: here (0, -0.3) lies straight on between its neighbours.
+        let z = [
+            [-0.3, -0.3],
+            [0.0, -0.3],
+            [0.3, -0.3],
+            [-0.3, 0.3],
+            [0.3, 0.3],
+        ];
+        let err = Primitive::Polygon(z.to_vec()).validate().unwrap_err();
+        assert!(
+            err.0.contains("the edge from (0.3, -0.3) to (-0.3, 0.3) crosses the edge from (0.3, 0.3) to (-0.3, -0.3)"),
+            "{err}"
+        );
     }
 
     #[test]
