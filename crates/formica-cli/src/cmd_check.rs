@@ -307,13 +307,29 @@ fn wall_name(k: usize) -> String {
 /// - the goal light stands inside a wall at least as tall as it: the wall hides it from every
 ///   robot (10 of 10 runs pushed the box away);
 /// - several objects are movable: each carries a beacon and robots push whichever they find,
-///   but success measures the target alone.
+///   but success measures the target alone;
+/// - a moving goal light's path leads outside the arena.
 fn goal_warnings(sc: &Scenario, w: &World) -> Vec<String> {
     let mut out = Vec::new();
     let (Some(gi), Some(goal)) = (w.goal_light, w.goal()) else {
         return out;
     };
     let light_h = w.lights[gi].height;
+    let (centre, size) = w.arena;
+    let path = sc.spec.lights.get(gi).map(|l| l.get_ref().path.clone());
+    if let Some(k) = path.unwrap_or_default().iter().position(|p| {
+        (Vec2::new(p[0], p[1]) - centre)
+            .abs()
+            .cmpgt(size / 2.0)
+            .any()
+    }) {
+        let p = &sc.spec.lights[gi].get_ref().path[k];
+        out.push(format!(
+            "the goal light's path leads outside the arena (lights.{gi}.path[{k}]: ({}, {}) at \
+             {} s): the arena's walls shade it there, and the object cannot follow it",
+            p[0], p[1], p[2]
+        ));
+    }
     for (k, wall) in w.walls.iter().enumerate() {
         if wall.height >= light_h && wall.contains(goal) {
             out.push(format!(

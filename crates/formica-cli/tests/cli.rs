@@ -537,6 +537,15 @@ fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
     // A goal light far beyond the east wall, and one just beyond it.
     assert!(warned(&["lights.0.at=[9.0, 0.0]"], "no trial can succeed"));
     assert!(warned(&["lights.0.at=[3.2, 0.0]"], "outside the arena"));
+    // A moving goal whose path leads beyond the east wall; one that stays inside.
+    assert!(warned(
+        &["lights.0.path=[[2.5, 0.0, 0.0], [4.0, 1.0, 60.0]]"],
+        "lights.0.path[1]: (4, 1) at 60 s"
+    ));
+    assert!(!warned(
+        &["lights.0.path=[[2.5, 0.0, 0.0], [2.5, 1.0, 60.0]]"],
+        "path leads outside"
+    ));
     // A goal light inside the east wall, as tall as the light: hidden from every robot.
     assert!(warned(
         &["lights.0.at=[3.0, 0.0]"],
