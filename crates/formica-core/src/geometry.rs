@@ -1040,12 +1040,13 @@ mod tests {
                     q.x.abs() <= w / 2.0 && q.y.abs() <= h / 2.0
                 })
             };
-            let n = 400;
-            let step = 2.0 / n as f32;
+            // A window the boxes cannot leave (offsets up to 0.4, half diagonals up to 0.71).
+            let n = 480;
+            let step = 2.4 / n as f32;
             let (mut area, mut mx, mut my) = (0.0f64, 0.0f64, 0.0f64);
             for i in 0..n {
                 for j in 0..n {
-                    let p = Vec2::new(-1.0 + (i as f32 + 0.5) * step, -1.0 + (j as f32 + 0.5) * step);
+                    let p = Vec2::new(-1.2 + (i as f32 + 0.5) * step, -1.2 + (j as f32 + 0.5) * step);
                     if inside(p) {
                         let a = f64::from(step * step);
                         area += a;
