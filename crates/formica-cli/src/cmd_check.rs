@@ -16,11 +16,22 @@ pub struct Args {
     /// Override any scenario key, as `formica run --set` does (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Use this controller for every robot group, as `formica run --controller` does.
+    #[arg(long)]
+    pub controller: Option<String>,
 }
 
 /// Loads the scenario, builds its world (placing robots with the file's seed) and describes it.
 pub fn main(a: Args) -> Result<(), CliError> {
-    let sc = crate::cmd_run::load(&a.scenario, &a.set)?;
+    crate::check_controller(a.controller.as_deref())?;
+    let mut sets = a.set.clone();
+    if let Some(c) = &a.controller {
+        // What `run --controller` does: every group's controller replaced, its params kept.
+        let groups = crate::cmd_run::load(&a.scenario, &a.set)?.spec.robots.len();
+        let name = toml::Value::String(c.clone());
+        sets.extend((0..groups).map(|g| format!("robots.{g}.controller={name}")));
+    }
+    let sc = crate::cmd_run::load(&a.scenario, &sets)?;
     let run = Run::new(&sc, &RunOptions::default())?;
     let w = &run.world;
     let s = &sc.spec;

@@ -335,6 +335,49 @@ fn bench_workloads_and_threads() {
 }
 
 #[test]
+fn check_takes_the_controller_override_run_takes() {
+    // Every group's controller replaced, as `run --controller` does, its parameters kept
+    // (and checked against the new controller, as `run` checks them).
+    let out = formica()
+        .arg("check")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--controller", "random-walk"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("controller random-walk"), "{text}");
+    assert!(!text.contains("controller occlusion"), "{text}");
+    let out = formica()
+        .arg("check")
+        .arg(repo("scenarios/mixed-swarm-u.toml"))
+        .args(["--controller", "random-walk"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("robots[1] controller `random-walk`") && err.contains("circle_led"),
+        "{err}"
+    );
+    let out = formica()
+        .arg("check")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--controller", "no-such"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--controller") && err.contains("no-such"),
+        "{err}"
+    );
+}
+
+#[test]
 fn set_overrides_any_scenario_key_and_bad_values_are_input_errors() {
     let out = formica()
         .arg("run")
