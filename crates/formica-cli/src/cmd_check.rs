@@ -380,6 +380,7 @@ fn object_warnings(sc: &Scenario, w: &World, i: usize) -> Vec<String> {
         goal_out_of_reach_warning(sc, w, i).or_else(|| goal_cut_off_warning(w, i)),
         too_heavy_warning(sc, w, i),
         too_light_warning(w, i),
+        wall_gap_warning(sc, w, i),
     ]
     .into_iter()
     .flatten()
@@ -460,6 +461,41 @@ fn goal_cut_off_warning(w: &World, i: usize) -> Option<String> {
                  even turned to its narrowest: no trial can succeed (widen the gaps, or move \
                  the light or the object)",
             w.objects[i].name
+        )
+    })
+}
+
+/// For the target of the goal, with the wall rule on: a warning if it starts nearer a wall
+/// than the widest robot is wide (but not touching it), so that no robot can pass between
+/// them and a touch fails the trial (an audit's concave object 0.12 m from a wall: 0 of 10).
+fn wall_gap_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
+    if !sc.spec.stop.on_wall || w.target != Some(i) || !w.objects[i].movable || w.goal().is_none() {
+        return None;
+    }
+    let (width, model) = w
+        .groups
+        .iter()
+        .map(|g| (2.0 * g.model.radius, g.model_name.as_str()))
+        .max_by(|a, b| a.0.total_cmp(&b.0))?;
+    let object = w.object_outlines(i);
+    let (gap, k) = w
+        .walls
+        .iter()
+        .enumerate()
+        .map(|(k, wall)| {
+            (
+                formica::geometry::outlines_gap(&object, &[wall.outline()]),
+                k,
+            )
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))?;
+    (gap > 1e-3 && gap < width).then(|| {
+        format!(
+            "object {i} \"{}\" starts {gap:.2} m from {}, less than a {model} is wide \
+             ({width:.2} m): no robot can pass between them, and with stop.on_wall a touch \
+             fails the trial (move the object, or set stop.on_wall = false)",
+            w.objects[i].name,
+            wall_name(k)
         )
     })
 }

@@ -580,6 +580,18 @@ fn check_and_run_warn_of_objects_that_cannot_do_what_the_file_asks() {
     // A goal light far beyond the east wall, and one just beyond it.
     assert!(warned(&["lights.0.at=[9.0, 0.0]"], "no trial can succeed"));
     assert!(warned(&["lights.0.at=[3.2, 0.0]"], "outside the arena"));
+    // A box 0.1 m from the north wall's face (1.95 m): no Khepera IV (0.14 m) passes; 0.2 m,
+    // or without the wall rule, no warning.
+    let gap = "no robot can pass between";
+    assert!(warned(
+        &["objects.0.at=[-1.0, 1.6]"],
+        "starts 0.10 m from an arena wall"
+    ));
+    assert!(!warned(&["objects.0.at=[-1.0, 1.5]"], gap));
+    assert!(!warned(
+        &["objects.0.at=[-1.0, 1.6]", "stop.on_wall=false"],
+        gap
+    ));
     // A moving goal whose path leads beyond the east wall; one that stays inside.
     assert!(warned(
         &["lights.0.path=[[2.5, 0.0, 0.0], [4.0, 1.0, 60.0]]"],

@@ -515,6 +515,25 @@ pub fn overlap_moments(parts: &[Part]) -> Option<AreaMoments> {
     })
 }
 
+/// The smallest distance between the edges of two sets of closed outlines (0 where edges
+/// touch or cross; a ring wholly inside the other is not noticed): edge against edge, by the
+/// collision engine's segment distance.
+pub fn outlines_gap(a: &[Vec<Vec2>], b: &[Vec<Vec2>]) -> f32 {
+    use rapier2d::parry::{query, shape::Segment};
+    let edges = |rings: &[Vec<Vec2>]| -> Vec<Segment> {
+        rings
+            .iter()
+            .flat_map(|r| (0..r.len()).map(move |k| Segment::new(r[k], r[(k + 1) % r.len()])))
+            .collect()
+    };
+    let (ea, eb) = (edges(a), edges(b));
+    let id = rapier2d::math::Pose::IDENTITY;
+    ea.iter()
+        .flat_map(|e| eb.iter().map(move |f| (e, f)))
+        .map(|(e, f)| query::distance(&id, e, &id, f).map_or(f32::MAX, |d| d.distance))
+        .fold(f32::MAX, f32::min)
+}
+
 /// Signed area of a polygon (positive when counter-clockwise).
 pub fn signed_area(pts: &[Vec2]) -> f32 {
     let n = pts.len();
@@ -1017,6 +1036,23 @@ mod tests {
             overlap_moments(&boxes(&[([1.0, 1.0], [0.0, 0.0], 0.0)])),
             None
         );
+    }
+
+    #[test]
+    fn outlines_gap_is_the_distance_between_edges() {
+        let square = |x: f32, y: f32| {
+            vec![
+                Vec2::new(x, y),
+                Vec2::new(x + 1.0, y),
+                Vec2::new(x + 1.0, y + 1.0),
+                Vec2::new(x, y + 1.0),
+            ]
+        };
+        let gap = |a: Vec<Vec2>, b: Vec<Vec2>| outlines_gap(&[a], &[b]);
+        assert!((gap(square(0.0, 0.0), square(1.5, 0.0)) - 0.5).abs() < 1e-6);
+        // Corner to corner, diagonally: sqrt(0.3^2 + 0.4^2).
+        assert!((gap(square(0.0, 0.0), square(1.3, 1.4)) - 0.5).abs() < 1e-6);
+        assert_eq!(gap(square(0.0, 0.0), square(0.5, 0.5)), 0.0);
     }
 
     proptest! {
