@@ -304,6 +304,20 @@ fn transports(sc: &Scenario) -> bool {
         .any(|g| is_transport(g.get_ref().controller.get_ref()))
 }
 
+/// The goal light's floor point, if object `i` is the movable target carried to it: the
+/// object the goal warnings are about.
+fn goal_of_target(w: &World, i: usize) -> Option<Vec2> {
+    (w.target == Some(i) && w.objects[i].movable)
+        .then(|| w.goal())
+        .flatten()
+}
+
+/// Whether `p` lies outside the arena's inner box.
+fn outside_arena(w: &World, p: Vec2) -> bool {
+    let (centre, size) = w.arena;
+    (p - centre).abs().cmpgt(size / 2.0).any()
+}
+
 /// A wall's name in messages: the arena's four, then `walls[k]`.
 fn wall_name(k: usize) -> String {
     if k < 4 {
@@ -326,15 +340,16 @@ fn goal_warnings(sc: &Scenario, w: &World) -> Vec<String> {
         return out;
     };
     let light_h = w.lights[gi].height;
-    let (centre, size) = w.arena;
-    let path = sc.spec.lights.get(gi).map(|l| l.get_ref().path.clone());
-    if let Some(k) = path.unwrap_or_default().iter().position(|p| {
-        (Vec2::new(p[0], p[1]) - centre)
-            .abs()
-            .cmpgt(size / 2.0)
-            .any()
-    }) {
-        let p = &sc.spec.lights[gi].get_ref().path[k];
+    let path = sc
+        .spec
+        .lights
+        .get(gi)
+        .map_or(&[][..], |l| &l.get_ref().path[..]);
+    if let Some((k, p)) = path
+        .iter()
+        .enumerate()
+        .find(|(_, p)| outside_arena(w, Vec2::new(p[0], p[1])))
+    {
         out.push(format!(
             "the goal light's path leads outside the arena (lights.{gi}.path[{k}]: ({}, {}) at \
              {} s): the arena's walls shade it there, and the object cannot follow it",
@@ -420,12 +435,10 @@ fn pieces_warning(w: &World, i: usize) -> Option<String> {
 /// from every place the object's centre can reach inside the arena (no trial can succeed),
 /// or, short of that, outside the arena.
 fn goal_out_of_reach_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
-    let (goal, radius) = (w.goal()?, formica::experiment::goal_radius(sc, w)?);
-    if w.target != Some(i) || !w.objects[i].movable {
-        return None;
-    }
+    let goal = goal_of_target(w, i)?;
+    let radius = formica::experiment::goal_radius(sc, w)?;
     let (centre, size) = w.arena;
-    let outside = (goal - centre).abs().cmpgt(size / 2.0).any();
+    let outside = outside_arena(w, goal);
     let half = (size / 2.0 - Vec2::splat(object_inner_distance(w, i))).max(Vec2::ZERO);
     let nearest = goal.clamp(centre - half, centre + half);
     let d = (goal - nearest).length();
@@ -450,10 +463,7 @@ fn goal_out_of_reach_warning(sc: &Scenario, w: &World, i: usize) -> Option<Strin
 /// the goal, even turned to its narrowest ([`formica::experiment::object_can_pass`]): a wall
 /// across the arena, or gaps narrower than the object.
 fn goal_cut_off_warning(w: &World, i: usize) -> Option<String> {
-    let goal = w.goal()?;
-    if w.target != Some(i) || !w.objects[i].movable {
-        return None;
-    }
+    let goal = goal_of_target(w, i)?;
     let from = w.object_center(i);
     (!formica::experiment::object_can_pass(w, i, from, goal)).then(|| {
         format!(
@@ -469,9 +479,7 @@ fn goal_cut_off_warning(w: &World, i: usize) -> Option<String> {
 /// than the widest robot is wide (but not touching it), so that no robot can pass between
 /// them and a touch fails the trial (an audit's concave object 0.12 m from a wall: 0 of 10).
 fn wall_gap_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
-    if !sc.spec.stop.on_wall || w.target != Some(i) || !w.objects[i].movable || w.goal().is_none() {
-        return None;
-    }
+    goal_of_target(w, i).filter(|_| sc.spec.stop.on_wall)?;
     let (width, model) = w
         .groups
         .iter()
@@ -535,9 +543,7 @@ fn floor_friction(sc: &Scenario, w: &World, i: usize) -> f32 {
 /// For the target of the goal: a warning if every robot of the scenario pushing at once
 /// gives no more than the object's floor friction (it cannot move).
 fn too_heavy_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
-    if w.target != Some(i) || w.goal().is_none() || !w.objects[i].movable {
-        return None;
-    }
+    goal_of_target(w, i)?;
     let o = &w.objects[i];
     let friction = floor_friction(sc, w, i);
     let all: f32 = (0..w.robots.len())

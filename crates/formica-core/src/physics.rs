@@ -706,16 +706,16 @@ impl Physics {
         if !movable {
             return self.add_static(shape, mprops, pose, Tag::Object(index), OBJECT_FRICTION);
         }
-        let area = shape.mass_properties(1.0).mass().max(1e-6);
         let body = self.world.bodies.insert(
             RigidBodyBuilder::dynamic()
                 .translation(pose.position())
                 .rotation(pose.theta)
                 .can_sleep(false),
         );
+        let builder = ColliderBuilder::new(shape.clone());
         let builder = match mprops {
-            Some(m) => ColliderBuilder::new(shape.clone()).mass_properties(m),
-            None => ColliderBuilder::new(shape.clone()).density(mass / area),
+            Some(m) => builder.mass_properties(m),
+            None => builder.density(mass / shape.mass_properties(1.0).mass().max(1e-6)),
         };
         let collider = self.world.colliders.insert_with_parent(
             builder
