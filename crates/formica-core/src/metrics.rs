@@ -176,7 +176,9 @@ pub fn disc_in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2, radius:
 /// ([`pack_discs`]): hexagonal and square lattices of spacing `2 radius`, laid at 12 rotations
 /// and 16 offsets, and laid along every edge of the object and its hull with the first row
 /// touching that edge; the best count is kept. A lower bound of the best packing (the tests
-/// check it on cavities counted by hand); a cavity narrower than a robot has capacity 0.
+/// check it on cavities counted by hand); a cavity narrower than a robot has capacity 0. Only
+/// discs a robot can reach from outside count: room behind a mouth narrower than a robot, or
+/// inside a closed ring of parts, holds none (see `Reach`: to within 7 mm for a Khepera IV).
 ///
 /// An object so large that one lattice over its hull would have more than
 /// [`MAX_PACKING_POINTS`] points (its cavity would hold some hundred thousand robots) is not
@@ -194,7 +196,8 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
         let per_disc = 2.0 * 3f64.sqrt() * f64::from(radius) * f64::from(radius);
         return (cavity / per_disc).floor() as usize;
     }
-    let fits = |p: Vec2| disc_in_cavity(world, obj, &hull, p, radius);
+    let reach = Reach::new(world, obj, &hull, radius);
+    let fits = |p: Vec2| disc_in_cavity(world, obj, &hull, p, radius) && reach.contains(p);
     let mut edges: Vec<(Vec2, Vec2)> = Vec::new();
     for ring in world
         .object_outlines(obj)
@@ -206,6 +209,101 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
         }
     }
     pack_discs(&hull, radius, &edges, fits).max(pack_deepest_first(&hull, radius, fits))
+}
+
+/// Where a robot disc of some radius can go from outside an object's hull without meeting
+/// the object: a grid of cells (a tenth of the radius, coarser for large objects: at most about
+/// [`MAX_PACKING_POINTS`] cells) over the hull's box and a margin, flooded (4 neighbours) from
+/// its border through cells where the disc, less [`CAVITY_SLACK_M`] and the step times
+/// `sqrt(1/2)`, is clear of the object. That allowance makes the flood never shut a way that a
+/// disc less the slack could take (every cell the way crosses is that close to it), and lets
+/// through gaps narrower than the disc by at most the slack plus 0.71 of a step (7 mm for a
+/// Khepera IV).
+struct Reach {
+    lo: Vec2,
+    step: f32,
+    nx: usize,
+    ny: usize,
+    open: Vec<bool>,
+}
+
+impl Reach {
+    fn new(world: &World, obj: usize, hull: &[Vec2], radius: f32) -> Self {
+        let (lo, hi) = bounds(hull);
+        let step0 = 0.1 * radius;
+        let margin = radius + 2.0 * step0;
+        let (lo, hi) = (lo - Vec2::splat(margin), hi + Vec2::splat(margin));
+        let extent = hi - lo;
+        let step = step0
+            .max((extent.x * extent.y / MAX_PACKING_POINTS as f32).sqrt())
+            .max(1e-6);
+        let (nx, ny) = (
+            (extent.x / step).ceil() as usize + 1,
+            (extent.y / step).ceil() as usize + 1,
+        );
+        let clear_r = (radius - CAVITY_SLACK_M - step * std::f32::consts::FRAC_1_SQRT_2).max(1e-5);
+        let body = world.objects[obj].body;
+        let at = |ix: usize, iy: usize| lo + Vec2::new(ix as f32 * step, iy as f32 * step);
+        // Free: the centre lies farther outside the hull than the disc reaches (nothing of the
+        // object there), or the shrunk disc misses the object.
+        let free = |p: Vec2| {
+            inside_depth(hull, p) < -(clear_r + 1e-4) || !world.physics.disc_meets(body, p, clear_r)
+        };
+        let mut open = vec![false; nx * ny];
+        let mut seen = vec![false; nx * ny];
+        let mut stack: Vec<(usize, usize)> = Vec::new();
+        for iy in 0..ny {
+            for ix in 0..nx {
+                if ix == 0 || iy == 0 || ix + 1 == nx || iy + 1 == ny {
+                    seen[iy * nx + ix] = true;
+                    stack.push((ix, iy));
+                }
+            }
+        }
+        while let Some((ix, iy)) = stack.pop() {
+            if !free(at(ix, iy)) {
+                continue;
+            }
+            open[iy * nx + ix] = true;
+            let mut visit = |jx: usize, jy: usize| {
+                let k = jy * nx + jx;
+                if !seen[k] {
+                    seen[k] = true;
+                    stack.push((jx, jy));
+                }
+            };
+            if ix > 0 {
+                visit(ix - 1, iy);
+            }
+            if ix + 1 < nx {
+                visit(ix + 1, iy);
+            }
+            if iy > 0 {
+                visit(ix, iy - 1);
+            }
+            if iy + 1 < ny {
+                visit(ix, iy + 1);
+            }
+        }
+        Self {
+            lo,
+            step,
+            nx,
+            ny,
+            open,
+        }
+    }
+
+    /// Whether the cell nearest to `p` is reached (points off the grid are outside the hull:
+    /// reached).
+    fn contains(&self, p: Vec2) -> bool {
+        let g = (p - self.lo) / self.step;
+        let (ix, iy) = (g.x.round(), g.y.round());
+        if !(ix >= 0.0 && iy >= 0.0 && (ix as usize) < self.nx && (iy as usize) < self.ny) {
+            return true;
+        }
+        self.open[iy as usize * self.nx + ix as usize]
+    }
 }
 
 /// Greedy packing of discs of `radius` into the convex region `hull`, where `fits` says

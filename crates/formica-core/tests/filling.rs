@@ -288,6 +288,53 @@ shape = { polygon = [[0.0, 0.5], [-0.1293, 0.178], [-0.4755, 0.1545], [-0.2092, 
 }
 
 #[test]
+fn cavity_capacity_counts_only_room_a_robot_can_reach() {
+    // A bottle: a 0.6 x 0.6 m room behind a mouth `mouth` m wide in a 0.1 m thick wall, open
+    // at +x. The room alone holds 16 discs of 0.0704 m (centres over 0.459 m each way: a
+    // square lattice of 4 x 4; a hexagonal one has room for rows of 4 and 3 only).
+    let bottle = |mouth: f32| {
+        let m = mouth / 2.0;
+        format!(
+            r#"
+[[objects]]
+movable = false
+shape = {{ polygon = [[-0.4, -0.4], [0.4, -0.4], [0.4, -{m}], [0.3, -{m}], [0.3, -0.3], [-0.3, -0.3], [-0.3, 0.3], [0.3, 0.3], [0.3, {m}], [0.4, {m}], [0.4, 0.4], [-0.4, 0.4]] }}
+"#
+        )
+    };
+    // Mouths narrower than a robot (0.1408 m) by more than the 7 mm allowance: nothing.
+    assert_eq!(capacity_of(&bottle(0.12)), 0);
+    assert_eq!(capacity_of(&bottle(0.05)), 0);
+    // Wide enough: the room fills, as it did before reach was asked.
+    let open = capacity_of(&bottle(0.16));
+    assert_eq!(open, 16, "{open}");
+    assert_eq!(open, capacity_of(&bottle(0.2)));
+    // A closed square frame of four bars holds nothing; open one side by 0.2 m and it does.
+    let frame = |gap: f32| {
+        let g = gap / 2.0;
+        let side = 0.5 - g;
+        let at = g + side / 2.0;
+        format!(
+            r#"
+[[objects]]
+movable = false
+parts = [
+  {{ box = [0.1, 1.0], at = [-0.45, 0.0] }},
+  {{ box = [1.0, 0.1], at = [0.0, 0.45] }},
+  {{ box = [1.0, 0.1], at = [0.0, -0.45] }},
+  {{ box = [0.1, {side}], at = [0.45, {at}] }},
+  {{ box = [0.1, {side}], at = [0.45, -{at}] }},
+]
+"#
+        )
+    };
+    assert_eq!(capacity_of(&frame(0.0)), 0);
+    let open = capacity_of(&frame(0.2));
+    // The 0.8 m square inside holds 6 hexagonal rows of 5 (30), one more in the opening.
+    assert!(open >= 30, "{open}");
+}
+
+#[test]
 fn deepest_first_packing_keeps_discs_apart_and_inside() {
     // In a 1 x 0.3 m rectangle every disc of 0.07 m fits where its centre is 0.07 m from the
     // sides: one row along the middle, 1 + floor(0.86 / 0.14) = 7 discs.
