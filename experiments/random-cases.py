@@ -29,6 +29,7 @@ controllers, with their defaults and the Khepera IV noise preset, where no one l
 """
 import math
 import random
+import sys
 
 SEED = 7
 SHAPES = 12
@@ -133,12 +134,16 @@ def way_round(obj, goal, bars, half, clearance):
 
 
 def main():
-    rng = random.Random(SEED)
+    # An optional seed draws another set (experiments/random-seed8.toml: the second draw).
+    seed = int(sys.argv[1]) if len(sys.argv) > 1 else SEED
+    name = "random" if seed == SEED else f"random-seed{seed}"
+    rng = random.Random(seed)
+    args = "" if seed == SEED else f" {seed}"
     print("# Objects, placements and obstacle maps drawn at random by experiments/random-cases.py")
-    print(f"# (seed {SEED}; rerun it to get this file back). Report: results/random/summary.md;")
-    print("# discussion on docs/src/results/unseen.md. 10 seeds per case.")
-    print("#   formica sweep experiments/random.toml --db random.db && formica report random.db --out results/random")
-    print('name = "random"')
+    print(f"# (seed {seed}: `python3 experiments/random-cases.py{args}` gives this file back). Report:")
+    print(f"# results/{name}/summary.md; discussion on docs/src/results/unseen.md. 10 seeds per case.")
+    print(f"#   formica sweep experiments/{name}.toml --db {name}.db && formica report {name}.db --out results/{name}")
+    print(f'name = "{name}"')
     print('seeds = "1..10"')
     print()
     print("[set]")

@@ -41,6 +41,7 @@ class Layout:
     wheel_distance: float
     proximity_range: float
     beacon_radius: float | None
+    tick_s: float
     names: list[str]
     slots: dict[str, tuple[int, int]]
     size: int

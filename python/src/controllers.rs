@@ -305,6 +305,9 @@ pub struct PyLayout {
     /// them (`None` without such an object).
     #[pyo3(get)]
     beacon_radius: Option<f32>,
+    /// Control period (s): `1 / run.tick_hz`.
+    #[pyo3(get)]
+    tick_s: f32,
     shape: Arc<Shape>,
 }
 
@@ -318,6 +321,7 @@ impl PyLayout {
             wheel_distance: layout.wheel_distance,
             proximity_range: layout.proximity_range,
             beacon_radius: layout.beacon_radius,
+            tick_s: layout.tick_s,
             shape,
         }
     }

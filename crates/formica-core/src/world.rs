@@ -512,6 +512,7 @@ impl World {
             let sensors = grp.sensors.resolve(model.kind);
             let layout = SensorLayout {
                 beacon_radius,
+                tick_s,
                 ..SensorLayout::of(&model, &sensors)
             };
             let name = ov

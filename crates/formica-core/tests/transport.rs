@@ -1,8 +1,11 @@
 //! Occlusion-based transport (`occlusion` controller) on the shipped scenarios.
 
 mod common;
-use common::{shipped, shipped_text, start};
+use common::{shipped, shipped_text, shipped_with, start};
 
+use formica::robot::RobotModel;
+use formica::scenario::SensorConfig;
+use formica::sensors::SensorLayout;
 use formica::{Outcome, Overrides, Scenario};
 
 /// What the object's distance to the goal did during a run, from the first tick a robot
@@ -191,4 +194,31 @@ fn occlusion_still_pushes_with_the_presets_noise() {
         t.closer,
         t.moving
     );
+}
+
+#[test]
+fn occlusion_delivers_at_one_control_tick_per_second() {
+    // At 1 Hz the gain of 3 rad/s per rad, held for a whole tick, turned robots past their
+    // heading by twice the error, back and forth by 170 degrees each tick, and no box moved
+    // (seed-transport seeds 1-2: timeouts at 1200 s, 0.15 m moved). With the turn gain capped
+    // at 1 / tick (`SensorLayout::turn_gain`) the seed's set-up delivers at 1 Hz too.
+    for seed in [1, 2] {
+        let sc = shipped_with("seed-transport.toml", &[("run.tick_hz", "1.0")]);
+        let mut run = start(&sc, seed);
+        assert_eq!(run.run_to_end(), Outcome::Success, "seed {seed}");
+    }
+}
+
+#[test]
+fn a_proportional_turn_never_overshoots_in_one_tick() {
+    let layout = |tick_s: f32| SensorLayout {
+        tick_s,
+        ..SensorLayout::of(&RobotModel::khepera4(), &SensorConfig::default())
+    };
+    // 10 Hz: the gain stands (every shipped scenario and study runs there, bit for bit).
+    assert_eq!(layout(0.1).turn_gain(3.0), 3.0);
+    // 1 Hz: gain times tick at most 1.
+    assert_eq!(layout(1.0).turn_gain(3.0), 1.0);
+    assert_eq!(layout(0.5).turn_gain(3.0), 2.0);
+    assert_eq!(layout(0.5).turn_gain(1.5), 1.5);
 }

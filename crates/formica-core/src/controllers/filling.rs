@@ -601,8 +601,8 @@ impl Filler {
     fn follow(&self, pc: &Percept) -> Actuation {
         let beta = ops::angle_of(pc.obj);
         let err = wrap_angle(beta - FRAC_PI_2);
-        let mut turn =
-            self.p.turn_gain * err + self.p.follow_gain * (self.p.follow_reading - pc.obj_max);
+        let mut turn = self.layout.turn_gain(self.p.turn_gain) * err
+            + self.p.follow_gain * (self.p.follow_reading - pc.obj_max);
         let mut fwd = self.p.follow_speed * (1.0 - err.abs() / PI).max(0.2);
         if pc.front > self.p.front_threshold {
             fwd = 0.0;
@@ -621,7 +621,7 @@ impl Filler {
                 } else {
                     self.p.speed * ops::cos(b).max(0.0)
                 };
-                (fwd, self.p.turn_gain * b)
+                (fwd, self.layout.turn_gain(self.p.turn_gain) * b)
             }
             None => {
                 if self.walk_left_s > 0.0 {
@@ -780,7 +780,10 @@ impl Filler {
                         0.0
                     };
                     let fwd = self.p.creep_speed * ops::cos(beta).max(0.0);
-                    let mut a = self.twist(fwd, 0.5 * self.p.turn_gain * (beta + swing));
+                    let mut a = self.twist(
+                        fwd,
+                        self.layout.turn_gain(0.5 * self.p.turn_gain) * (beta + swing),
+                    );
                     // Attach once snug (pressed on more sensors than a check needs), or after
                     // half the time-out if the robot cannot get closer.
                     let snug = pc.strong > self.strong_needed;

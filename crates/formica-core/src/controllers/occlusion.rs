@@ -1023,7 +1023,7 @@ impl Occlusion {
         let avoid = self.avoid_turn(other);
         match target {
             Some(b) => {
-                let turn = self.p.turn_gain * b + avoid;
+                let turn = self.layout.turn_gain(self.p.turn_gain) * b + avoid;
                 let fwd = if b.abs() > 1.2 {
                     0.0
                 } else {
@@ -1493,7 +1493,8 @@ impl Controller for Occlusion {
                     // Object on the left (side +1): its bearing should be +90 degrees.
                     let err = wrap_angle(s.bearing - side * FRAC_PI_2);
                     let gap_err = (s.gap - self.p.circle_gap).clamp(-0.1, 0.1);
-                    let mut turn = self.p.turn_gain * err + side * self.p.gap_gain * gap_err;
+                    let mut turn = self.layout.turn_gain(self.p.turn_gain) * err
+                        + side * self.p.gap_gain * gap_err;
                     let mut fwd = self.p.circle_speed * (1.0 - err.abs() / PI).max(0.2);
                     if blocked_ahead {
                         // Go round a neighbour on the outside.
@@ -1548,7 +1549,7 @@ impl Controller for Occlusion {
                     } else {
                         0.0
                     };
-                    break self.twist(fwd, self.p.turn_gain * err);
+                    break self.twist(fwd, self.layout.turn_gain(self.p.turn_gain) * err);
                 }
                 State::Escape => {
                     let t = now - self.since_s;
