@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{robot_group, scenario, start};
+use common::{robot_group, scenario, shipped_with, start};
 use formica::experiment::Run;
 use formica::geometry::Vec2;
 
@@ -452,4 +452,32 @@ fn every_disc_the_capacity_counts_clears_the_object_at_any_turn() {
             );
         }
     }
+}
+
+#[test]
+fn fillers_settle_wholly_inside_the_pockets_of_a_star() {
+    // A six-point star drawn at random (`experiments/random-seed8.toml`, shape 1) in the seed's
+    // static set-up: one disc fits wholly inside each of its six pockets. With a 1.5 s check
+    // the ten fillers attached six in the pockets but every one 1.5 to 2 cm short of the hull
+    // (the ring reads 1.0 at any gap under 4 cm), so none counted (0 of 60 over seeds 1-10);
+    // creeping for the 4.5 s check takes them in (56 of 60).
+    let star = "[{ at = [-0.8, 0.0], yaw_deg = 223.3, polygon = [[0.373, 0.025], [0.122, 0.058], \
+                [0.204, 0.314], [0.013, 0.135], [-0.172, 0.332], [-0.116, 0.07], [-0.373, -0.03], \
+                [-0.119, -0.065], [-0.212, -0.309], [-0.007, -0.135], [0.218, -0.304], \
+                [0.111, -0.078]] }]";
+    let sc = shipped_with("seed-fill-u.toml", &[("objects.0.parts", star)]);
+    let (mut inside, mut capacity) = (0, 0);
+    for seed in [1, 2] {
+        let mut run = start(&sc, seed);
+        run.run_to_end();
+        let r = run.result();
+        assert_eq!(r.false_stops, Some(0), "seed {seed}");
+        inside += r.cavity_robots.unwrap_or(0);
+        capacity += r.cavity_capacity.unwrap_or(0);
+    }
+    assert_eq!(capacity, 12);
+    assert!(
+        inside >= 9,
+        "{inside} of {capacity} wholly inside the pockets"
+    );
 }

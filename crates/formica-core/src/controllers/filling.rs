@@ -129,7 +129,11 @@ pub struct Params {
     pub lost_s: f32,
     /// Radius of that arc (m). Default 0.12.
     pub arc_radius: f32,
-    /// Seconds of creeping into the spot during which the surround is checked. Default 1.5.
+    /// Seconds of creeping into the spot during which the surround is checked. Default 4.5
+    /// (results format 26; 1.5 before): the ring reads 1.0 at any gap under 4 cm, so a robot
+    /// cannot tell a snug spot from one 2 cm short, and in 1.5 s it often stopped short (in a
+    /// star's pockets 1.5 to 2 cm from both sides, the disc not wholly inside the hull); the
+    /// longer creep closes that gap.
     pub hold_s: f32,
     /// Seconds to wait for the attachment before giving up. Default 3.
     pub attach_timeout_s: f32,
@@ -183,7 +187,7 @@ impl Default for Params {
             front_threshold: 0.5,
             lost_s: 4.0,
             arc_radius: 0.12,
-            hold_s: 1.5,
+            hold_s: 4.5,
             attach_timeout_s: 3.0,
             retry_s: 5.0,
             creep_speed: 0.04,
