@@ -111,7 +111,32 @@ pub fn run_seeds(
 pub fn command(py: Python<'_>, args: Vec<String>) -> PyResult<()> {
     guard(|| {
         let argv: Vec<String> = std::iter::once("formica".to_string()).chain(args).collect();
-        let r = py.detach(|| formica_cli::try_main_from(Registry::global(), argv));
+        // The command runs on its own thread while this one looks for Ctrl-C (a notebook's
+        // interrupt) every 50 ms: a sweep then starts no new trial, stores those running and
+        // returns; the interrupt is raised here once it has.
+        let mut interrupt: Option<PyErr> = None;
+        let joined = py.detach(|| {
+            std::thread::scope(|s| {
+                let worker = s.spawn(|| formica_cli::try_main_from(Registry::global(), argv));
+                while !worker.is_finished() {
+                    std::thread::sleep(std::time::Duration::from_millis(50));
+                    if interrupt.is_none() {
+                        if let Err(e) = Python::attach(|py| py.check_signals()) {
+                            formica_cli::request_stop();
+                            interrupt = Some(e);
+                        }
+                    }
+                }
+                worker.join()
+            })
+        });
+        let r = joined.unwrap_or_else(|payload| std::panic::resume_unwind(payload));
+        if let Some(e) = interrupt {
+            if let Err(c) = &r {
+                eprintln!("{}", c.message);
+            }
+            return Err(e);
+        }
         match r {
             Ok(()) => Ok(()),
             Err(e) if e.code == 0 => Ok(()),

@@ -23,18 +23,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 
 /// Every colour, in code order: the LED codes of `World.leds` index this list.
-const COLORS: [Color; 10] = [
-    Color::Off,
-    Color::Red,
-    Color::Green,
-    Color::Blue,
-    Color::Yellow,
-    Color::Magenta,
-    Color::Cyan,
-    Color::Orange,
-    Color::White,
-    Color::Grey,
-];
+const COLORS: [Color; 11] = Color::ALL;
 
 /// The colour names, in code order (`formica.COLORS`).
 pub(crate) fn color_names() -> Vec<&'static str> {

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 import formica
-from conftest import SEED_TRANSPORT
+from conftest import ROOT, SEED_TRANSPORT
 
 
 def cli_lines(formica_bin, *args):
@@ -67,3 +67,45 @@ def test_bad_arguments_are_value_errors():
         formica.run(SEED_TRANSPORT, seeds=1, controller="nope")
     with pytest.raises(ValueError, match="non-negative"):
         formica.run(SEED_TRANSPORT, seeds=[-1])
+
+
+def test_ctrl_c_stops_a_sweep_between_trials_and_keeps_what_it_ran(tmp_path):
+    # A notebook's interrupt (SIGINT) used to wait for the whole sweep: 40 trials of 900 s
+    # ran to the end before KeyboardInterrupt came. Now no new trial starts, those finished
+    # stay in the store, and running the sweep again resumes.
+    import signal
+    import sqlite3
+    import subprocess
+    import sys
+    import time
+
+    study = tmp_path / "long.toml"
+    study.write_text(
+        f'scenario = "{ROOT / "scenarios/seed-transport.toml"}"\nseeds = "1..40"\n'
+        "duration_s = 900\n[set]\n\"stop.on_goal\" = false\n\"stop.on_wall\" = false\n"
+    )
+    db = tmp_path / "long.db"
+    code = (
+        "import formica, sys\n"
+        "try:\n"
+        f"    formica.sweep({str(study)!r}, db={str(db)!r}, threads=1)\n"
+        "except KeyboardInterrupt:\n"
+        "    sys.exit(42)\n"
+    )
+    child = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE, text=True)
+    # Wait for the first stored trial, then interrupt.
+    deadline = time.time() + 120
+    def stored():
+        try:
+            with sqlite3.connect(db) as c:
+                return c.execute("SELECT COUNT(*) FROM trials").fetchone()[0]
+        except sqlite3.Error:
+            return 0
+    while stored() == 0 and time.time() < deadline and child.poll() is None:
+        time.sleep(0.1)
+    child.send_signal(signal.SIGINT)
+    _, err = child.communicate(timeout=120)
+    assert child.returncode == 42, err
+    kept = stored()
+    assert 1 <= kept < 40, kept
+    assert "interrupted after" in err, err

@@ -327,15 +327,18 @@ pub fn main(a: Args) -> Result<(), CliError> {
     let failures: Vec<String> = pool.install(|| {
         todo.par_iter()
             .with_max_len(1)
-            .filter_map(
-                |&t| match run_trial(&sweep, t, record, &provenance[t.set]) {
+            .filter_map(|&t| {
+                if crate::stop_requested() {
+                    return None;
+                }
+                match run_trial(&sweep, t, record, &provenance[t.set]) {
                     Ok(row) => tx
                         .send((row, judged[t.set]))
                         .err()
                         .map(|_| "the result writer stopped".to_string()),
                     Err(e) => Some(format!("trial {} (seed {}): {e}", t.index, t.seed)),
-                },
-            )
+                }
+            })
             .collect()
     });
     drop(tx);
@@ -352,6 +355,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     let store = Store::open(&db)?;
     let total = store.count()?;
+    if crate::stop_requested() {
+        return Err(CliError::Interrupted(format!(
+            "{}: interrupted after {n} trials; {} holds {total} of {} trials (run the same \
+             command again to run the rest)",
+            sweep.name,
+            db.display(),
+            all.len()
+        )));
+    }
     let scored = n - unjudged;
     let [lo, hi] = stats::wilson95(ok, scored);
     let missing = mine.len() - skipped;

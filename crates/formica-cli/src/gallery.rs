@@ -326,7 +326,7 @@ fn draw_pictures(
             Ok(r) => replays.push(r),
             Err(e) => {
                 let why = match e {
-                    CliError::Input(m) => m,
+                    CliError::Input(m) | CliError::Interrupted(m) => m,
                     CliError::Other(e) => format!("{e:#}"),
                 };
                 results.push((t.trial, Err(why)));

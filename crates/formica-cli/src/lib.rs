@@ -109,6 +109,23 @@ pub(crate) enum CliError {
     Input(String),
     /// Something else failed (I/O, ...).
     Other(anyhow::Error),
+    /// Stopped by [`request_stop`] (exit code 130, as a shell gives for Ctrl-C).
+    Interrupted(String),
+}
+
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Asks a running [`try_main_from`] to stop early: a sweep starts no new trial, lets those
+/// running finish and be stored, and returns an error of code 130 (resume it by running it
+/// again). For embedders that handle Ctrl-C themselves (the Python package: a notebook's
+/// interrupt); the command line is simply killed by Ctrl-C, which keeps every stored trial too.
+pub fn request_stop() {
+    STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether [`request_stop`] was called since the command began.
+pub(crate) fn stop_requested() -> bool {
+    STOP.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// `--duration`: more than 0 and at most [`formica::limits::MAX_DURATION_S`].
@@ -377,6 +394,7 @@ where
     T: Into<OsString> + Clone,
 {
     registry.install();
+    STOP.store(false, std::sync::atomic::Ordering::Relaxed);
     let cli = parse(args).map_err(|e| CommandError {
         code: u8::try_from(e.exit_code()).unwrap_or(2),
         message: e.render().to_string(),
@@ -404,6 +422,7 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
             code: 1,
             message: format!("{e:#}"),
         },
+        CliError::Interrupted(message) => CommandError { code: 130, message },
     })
 }
 

@@ -529,9 +529,17 @@ pub fn controllers_markdown() -> String {
             } else {
                 format!("`{}`", k.default)
             };
+            // A nested table's keys (fill-transport's `fill.*`) share their doc with the
+            // controller they configure, whose stated default may not be this one's.
+            let note = match stated_default(&k.description) {
+                Some(d) if !k.default.is_empty() && !k.table && !same_value(d, &k.default) => {
+                    format!(" Here (`{name}`) the default is `{}`.", k.default)
+                }
+                _ => String::new(),
+            };
             let _ = writeln!(
                 s,
-                "| `{}` | {} | {} | {} |",
+                "| `{}` | {} | {} | {}{note} |",
                 k.path, k.kind, default, k.description
             );
         }
@@ -540,6 +548,27 @@ pub fn controllers_markdown() -> String {
     s.push_str(CONTROLLERS_END);
     s.push('\n');
     s
+}
+
+/// The value a parameter's doc states after its first "Default " (`0.95` of "Default 0.95 (a
+/// Khepera IV's gap ...)"), if any.
+fn stated_default(description: &str) -> Option<&str> {
+    let rest = &description[description.find("Default ")? + "Default ".len()..];
+    let word = rest.split_whitespace().next()?;
+    Some(
+        word.trim_end_matches(['.', ',', ';', ')', ':'])
+            .trim_matches('`'),
+    )
+}
+
+/// Whether a stated default and a schema default are the same value (`3.0` and `3`, `green`
+/// and `"green"`).
+fn same_value(stated: &str, default: &str) -> bool {
+    let default = default.trim_matches('"');
+    match (stated.parse::<f64>(), default.parse::<f64>()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => stated == default,
+    }
 }
 
 /// Arguments of `formica schema`.

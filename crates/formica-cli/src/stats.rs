@@ -14,7 +14,18 @@ pub fn wilson95(k: usize, n: usize) -> [f64; 2] {
     let denom = 1.0 + z * z / n_f;
     let centre = (p + z * z / (2.0 * n_f)) / denom;
     let half = z * (p * (1.0 - p) / n_f + z * z / (4.0 * n_f * n_f)).sqrt() / denom;
-    [(centre - half).max(0.0), (centre + half).min(1.0)]
+    // At k = 0 (k = n) the bound is 0 (1) exactly; rounding left 5.6e-17.
+    let lo = if k == 0 {
+        0.0
+    } else {
+        (centre - half).max(0.0)
+    };
+    let hi = if k >= n {
+        1.0
+    } else {
+        (centre + half).min(1.0)
+    };
+    [lo, hi]
 }
 
 /// Mean of `f` over the results that have it (`None` if none has).
@@ -106,6 +117,11 @@ mod tests {
         assert!((lo - 0.8519).abs() < 1e-3, "{lo}");
         assert!((hi - 0.9877).abs() < 1e-3, "{hi}");
         assert_eq!(wilson95(0, 0), [0.0, 1.0]);
+        // No success: the lower bound is exactly 0 (it read 5.55e-17), the upper z^2 / (n + z^2).
+        let [lo, hi] = wilson95(0, 10);
+        assert_eq!(lo, 0.0);
+        assert!((hi - 0.2775).abs() < 1e-4, "{hi}");
+        assert_eq!(wilson95(10, 10)[1], 1.0);
     }
 
     #[test]

@@ -894,7 +894,7 @@ mod tests {
             .insert(&row(5, serde_json::json!({ "git_commit": "x" })))
             .err()
             .map(|e| match e {
-                CliError::Input(m) => m,
+                CliError::Input(m) | CliError::Interrupted(m) => m,
                 CliError::Other(e) => e.to_string(),
             });
         assert!(fixed.is_some_and(|m| m.contains("column of every result store")));
@@ -903,7 +903,7 @@ mod tests {
             .insert(&row(4, serde_json::json!({ "robots.0.count": 1 })))
             .err()
             .map(|e| match e {
-                CliError::Input(m) => m,
+                CliError::Input(m) | CliError::Interrupted(m) => m,
                 CliError::Other(e) => e.to_string(),
             });
         assert!(e.is_some_and(|m| m.contains("has the name of a varied key")));

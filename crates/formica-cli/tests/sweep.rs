@@ -1026,3 +1026,33 @@ fn a_report_digests_the_scenarios_of_a_sweep_that_gained_parameter_sets() {
     assert_eq!(digest(&grown_db, "after"), fresh);
     assert_ne!(before, fresh);
 }
+
+#[test]
+fn export_to_a_closed_pipe_ends_quietly() {
+    // `formica export DB --csv - | head -1`: the reader goes before the rows are written.
+    // Export used to fail with "writing CSV: Broken pipe" and exit 1; `run` never did.
+    let dir = tmp("export-pipe");
+    let file = write_sweep(&dir, "1..3");
+    let db = dir.join("s.db");
+    ok(sweep(&file, &db, &[]));
+    let mut child = formica()
+        .arg("export")
+        .arg(&db)
+        .args(["--csv", "-"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

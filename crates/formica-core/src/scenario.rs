@@ -70,6 +70,21 @@ pub enum Color {
 }
 
 impl Color {
+    /// Every colour, in declaration order (Python's `formica.COLORS` and LED codes use it).
+    pub const ALL: [Color; 11] = [
+        Color::Off,
+        Color::Red,
+        Color::Green,
+        Color::Blue,
+        Color::Yellow,
+        Color::Magenta,
+        Color::Cyan,
+        Color::Orange,
+        Color::White,
+        Color::Grey,
+        Color::Black,
+    ];
+
     /// 8-bit RGB for drawing.
     pub fn rgb(self) -> [u8; 3] {
         match self {
@@ -1705,6 +1720,33 @@ fn non_finite_literal(text: &str) -> Option<(usize, &str)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_colour_is_listed_once_and_parses_by_its_name() {
+        // A colour missing from `Color::ALL` has no LED code in Python (black had none).
+        let names: std::collections::BTreeSet<&str> = Color::ALL.iter().map(|c| c.name()).collect();
+        assert_eq!(names.len(), Color::ALL.len());
+        for c in Color::ALL {
+            let parsed: Color = toml::Value::String(c.name().into()).try_into().unwrap();
+            assert_eq!(parsed, c);
+        }
+        // Exhaustive: a new variant fails to compile here until it is listed.
+        for c in Color::ALL {
+            match c {
+                Color::Off
+                | Color::Red
+                | Color::Green
+                | Color::Blue
+                | Color::Yellow
+                | Color::Magenta
+                | Color::Cyan
+                | Color::Orange
+                | Color::White
+                | Color::Grey
+                | Color::Black => {}
+            }
+        }
+    }
 
     const MIN: &str = r#"
 [arena]
