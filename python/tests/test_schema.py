@@ -62,6 +62,8 @@ BASE = (ROOT / "scenarios/seed-transport.toml").read_text()
         ("unknown key in [run]", BASE.replace("[run]", "[run]\nticks_hz = 10")),
         ("a typo in a robot group", BASE.replace("[[robots]]", '[[robots]]\ncontroler = "occlusion"')),
         ("tick rate out of range", BASE.replace("tick_hz = 10", "tick_hz = 0.5")),
+        # The parser wants more than 0; the schema said "0 to 1000000" until it said so too.
+        ("a run of no time", BASE.replace("duration_s = 1200", "duration_s = 0")),
     ],
 )
 def test_the_scenario_schema_and_the_parser_reject(formica_bin, scenario_schema, tmp_path, what, text):

@@ -271,11 +271,17 @@ fn kind(s: &Value) -> String {
 }
 
 fn range(s: &Value) -> String {
-    let bounds = |s: &Value| match (s.get("minimum"), s.get("maximum")) {
-        (Some(a), Some(b)) => Some(format!("{} to {}", num(a), num(b))),
-        (Some(a), None) => Some(format!("at least {}", num(a))),
-        (None, Some(b)) => Some(format!("at most {}", num(b))),
-        (None, None) => None,
+    let bounds = |s: &Value| match (
+        s.get("minimum"),
+        s.get("exclusiveMinimum"),
+        s.get("maximum"),
+    ) {
+        (Some(a), _, Some(b)) => Some(format!("{} to {}", num(a), num(b))),
+        (None, Some(a), Some(b)) => Some(format!("more than {} and at most {}", num(a), num(b))),
+        (Some(a), _, None) => Some(format!("at least {}", num(a))),
+        (None, Some(a), None) => Some(format!("more than {}", num(a))),
+        (None, None, Some(b)) => Some(format!("at most {}", num(b))),
+        (None, None, None) => None,
     };
     let mut parts = Vec::new();
     if let Some(b) = bounds(s) {

@@ -23,7 +23,10 @@ pub(crate) struct SweepSpec {
     seeds: toml::Value,
     /// Simulated time limit of every trial (same as `"run.duration_s"` in `[set]`).
     #[serde(default)]
-    #[schemars(range(min = 0.0, max = formica::limits::MAX_DURATION_S))]
+    #[schemars(
+        range(max = formica::limits::MAX_DURATION_S),
+        extend("exclusiveMinimum" = 0)
+    )]
     duration_s: Option<f64>,
     /// Store the object's trajectory of every trial.
     #[serde(default)]

@@ -730,7 +730,10 @@ pub struct RunSpec {
     pub substeps: Substeps,
     /// Simulated time limit (s).
     #[serde(default = "default_duration")]
-    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_DURATION_S)))]
+    #[cfg_attr(
+        feature = "schema",
+        schemars(range(max = limits::MAX_DURATION_S), extend("exclusiveMinimum" = 0))
+    )]
     pub duration_s: f32,
     /// Default seed.
     #[serde(default = "default_seed")]
@@ -865,7 +868,10 @@ pub struct StopSpec {
     /// Stop with `success` once every robot is released and this fraction of them is attached
     /// to the object (filling experiments). Off unless set.
     #[serde(default)]
-    #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = 1.0)))]
+    #[cfg_attr(
+        feature = "schema",
+        schemars(range(max = 1.0), extend("exclusiveMinimum" = 0))
+    )]
     pub on_filled: Option<f32>,
 }
 
