@@ -23,15 +23,7 @@ pub struct Args {
 
 /// Loads the scenario, builds its world (placing robots with the file's seed) and describes it.
 pub fn main(a: Args) -> Result<(), CliError> {
-    crate::check_controller(a.controller.as_deref())?;
-    let mut sets = a.set.clone();
-    if let Some(c) = &a.controller {
-        // What `run --controller` does: every group's controller replaced, its params kept.
-        let groups = crate::cmd_run::load(&a.scenario, &a.set)?.spec.robots.len();
-        let name = toml::Value::String(c.clone());
-        sets.extend((0..groups).map(|g| format!("robots.{g}.controller={name}")));
-    }
-    let sc = crate::cmd_run::load(&a.scenario, &sets)?;
+    let sc = crate::cmd_run::load_with_controller(&a.scenario, &a.set, a.controller.as_deref())?;
     let run = Run::new(&sc, &RunOptions::default())?;
     let w = &run.world;
     let s = &sc.spec;

@@ -163,6 +163,25 @@ pub fn load(path: &std::path::Path, set: &[String]) -> Result<Scenario, CliError
     })
 }
 
+/// [`load`], with every robot group's controller replaced by `controller` (its params kept),
+/// as `run --controller` does it: for commands that build their world from the file alone
+/// (`check`, `serve`).
+pub(crate) fn load_with_controller(
+    path: &std::path::Path,
+    set: &[String],
+    controller: Option<&str>,
+) -> Result<Scenario, CliError> {
+    crate::check_controller(controller)?;
+    let sc = load(path, set)?;
+    let Some(c) = controller else {
+        return Ok(sc);
+    };
+    let name = toml::Value::String(c.to_string());
+    let mut sets = set.to_vec();
+    sets.extend((0..sc.spec.robots.len()).map(|g| format!("robots.{g}.controller={name}")));
+    load(path, &sets)
+}
+
 fn load_scenario(path: &std::path::Path, set: &[String]) -> Result<Scenario, CliError> {
     if set.is_empty() {
         return Ok(Scenario::load(path)?);

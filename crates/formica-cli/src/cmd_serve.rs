@@ -15,7 +15,7 @@ pub struct Args {
     pub scenario: Option<PathBuf>,
     /// Show a trial of this result store (with `--trial`) instead of a scenario file.
     #[arg(long, value_name = "STUDY.db", requires = "trial",
-          conflicts_with_all = ["scenario", "seed", "duration"])]
+          conflicts_with_all = ["scenario", "seed", "duration", "set", "controller"])]
     pub db: Option<PathBuf>,
     /// With `--db`: the trial to show (its number, as `formica report` lists it).
     #[arg(long, requires = "db")]
@@ -29,6 +29,12 @@ pub struct Args {
     /// Simulated time limit in seconds (default: the file's `run.duration_s`).
     #[arg(long)]
     pub duration: Option<f32>,
+    /// Use this controller for every robot group, as `formica run --controller` does.
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Override any scenario key, as `formica run --set` does (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Address to listen on. The default, 127.0.0.1, keeps the viewer on this machine; any
     /// other address (e.g. 0.0.0.0) exposes it to the network, unauthenticated.
     #[arg(long, default_value = "127.0.0.1")]
@@ -62,7 +68,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             (r.scenario, Some(r.seed), Some(info), label)
         }
         (_, _, Some(path)) => (
-            crate::cmd_run::load(path, &[])?,
+            crate::cmd_run::load_with_controller(path, &a.set, a.controller.as_deref())?,
             a.seed,
             None,
             path.display().to_string(),

@@ -47,8 +47,10 @@ fn record_writes_an_animated_gif() {
 
 #[test]
 fn serve_listens_on_loopback_and_answers() {
+    // `--set` and `--controller` as `run` takes them (the viewer lacked both).
     let mut child = formica()
-        .args(["serve", "--port", "0"])
+        .args(["serve", "--port", "0", "--set", "robots.0.count=3"])
+        .args(["--controller", "random-walk"])
         .arg(repo("scenarios/seed-transport.toml"))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -81,16 +83,33 @@ fn serve_listens_on_loopback_and_answers() {
         if !resp.starts_with("HTTP/1.1 200") || !resp.contains("\"tick\":0") {
             return Err(format!("unexpected answer: {resp:.200}"));
         }
+        let mut s = std::net::TcpStream::connect(&authority).map_err(|e| e.to_string())?;
+        s.set_read_timeout(Some(Duration::from_secs(10)))
+            .map_err(|e| e.to_string())?;
+        write!(s, "GET /api/scene HTTP/1.1\r\nHost: {authority}\r\n\r\n")
+            .map_err(|e| e.to_string())?;
+        let mut resp = String::new();
+        let _ = s.read_to_string(&mut resp);
+        if !resp.contains("\"robots\":3") {
+            return Err(format!("--set robots.0.count=3 not applied: {resp:.300}"));
+        }
         Ok(())
     })();
     let _ = child.kill();
     let _ = child.wait();
     result.expect("serve answers on loopback");
 
-    // A bad scenario is an input error, as for `formica run`.
+    // A bad scenario is an input error, as for `formica run`, and so is an unknown controller.
     let o = formica()
         .args(["serve", "no-such-file.toml", "--port", "0"])
         .output()
         .expect("runs");
     assert_eq!(o.status.code(), Some(2));
+    let o = formica()
+        .args(["serve", "--port", "0", "--controller", "ocluson"])
+        .arg(repo("scenarios/seed-transport.toml"))
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("ocluson"));
 }
