@@ -254,6 +254,40 @@ fn broken_files_get_file_line_and_expectation_with_exit_2() {
         "overlaps objects[0]",
     );
     check_error("[arena\nsize = 1", 1, "");
+    // Placements in the file's terms (serde said "wanted exactly 1 element, more than 1
+    // element" for a heading beside the kind, and named Rust types elsewhere).
+    let placement = "placement = { poses = [[1.0, 0.0, 0.0], [1.5, 0.0, 0.0]] }";
+    check_error(
+        &GOOD.replace(
+            placement,
+            "placement = { random = { min = [0.5, -1.0], max = [2.0, 1.0] }, heading_deg = 0.0 }",
+        ),
+        11,
+        "`heading_deg` goes inside the kind's own table",
+    );
+    check_error(
+        &GOOD.replace(placement, "placement = {}"),
+        11,
+        "exactly one of `random`, `grid` or `poses`, found none",
+    );
+    check_error(
+        &GOOD.replace(placement, "placement = \"random\""),
+        11,
+        "found the string \"random\"",
+    );
+    check_error(
+        &GOOD.replace(
+            placement,
+            "placement = { grid = { center = [1.0, 0.0], spacing = \"a\" } }",
+        ),
+        11,
+        "placement.grid: invalid type: string \"a\", expected a number in `spacing`",
+    );
+    check_error(
+        &GOOD.replace("count = 2", "count = 2.5"),
+        9,
+        "expected a whole number",
+    );
 }
 
 #[test]

@@ -386,7 +386,7 @@ fn default_object_color() -> Color {
 
 /// Where a group's robots start.
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Placement {
     /// Uniformly random, non-overlapping, in a rectangle.
@@ -421,6 +421,139 @@ pub enum Placement {
     },
     /// Explicit `[x, y, heading_deg]` per robot.
     Poses(Vec<[f32; 3]>),
+}
+
+/// What serde derives for [`Placement`], behind [`Placement`]'s own `Deserialize`, which
+/// first checks the outer table so that a slip gets a message in the file's terms (serde's
+/// own read `wanted exactly 1 element, more than 1 element`).
+#[derive(Deserialize)]
+#[serde(remote = "Placement", rename_all = "snake_case", deny_unknown_fields)]
+enum PlacementDef {
+    Random {
+        min: [f32; 2],
+        max: [f32; 2],
+        #[serde(default)]
+        heading_deg: Option<f32>,
+    },
+    Grid {
+        center: [f32; 2],
+        spacing: f32,
+        #[serde(default)]
+        columns: Option<usize>,
+        #[serde(default)]
+        heading_deg: f32,
+    },
+    Poses(Vec<[f32; 3]>),
+}
+
+impl<'de> Deserialize<'de> for Placement {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        const KINDS: [&str; 3] = ["random", "grid", "poses"];
+        const EXAMPLE: &str = "placement = { random = { min = [-1.0, -1.0], max = [1.0, 1.0] } }";
+        let v = toml::Value::deserialize(d)?;
+        let Some(t) = v.as_table() else {
+            return Err(D::Error::custom(format!(
+                "expected a table with one of `random`, `grid` or `poses`, found {} ({EXAMPLE})",
+                describe_value(&v)
+            )));
+        };
+        let kinds: Vec<&str> = t
+            .keys()
+            .map(String::as_str)
+            .filter(|k| KINDS.contains(k))
+            .collect();
+        let others: Vec<&str> = t
+            .keys()
+            .map(String::as_str)
+            .filter(|k| !KINDS.contains(k))
+            .collect();
+        if !others.is_empty() {
+            let inside = if others
+                .iter()
+                .any(|k| ["heading_deg", "min", "max", "center", "spacing", "columns"].contains(k))
+            {
+                format!(" (`{}` goes inside the kind's own table: {EXAMPLE} with `heading_deg = 0.0` beside `min` and `max`)", others[0])
+            } else {
+                String::new()
+            };
+            return Err(D::Error::custom(format!(
+                "unknown key{} {} in a placement: expected exactly one of `random`, `grid` or \
+                 `poses`{inside}",
+                if others.len() > 1 { "s" } else { "" },
+                others
+                    .iter()
+                    .map(|k| format!("`{k}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        if kinds.len() != 1 {
+            return Err(D::Error::custom(format!(
+                "a placement has exactly one of `random`, `grid` or `poses`, found {} ({EXAMPLE})",
+                if kinds.is_empty() {
+                    "none".to_string()
+                } else {
+                    kinds
+                        .iter()
+                        .map(|k| format!("`{k}`"))
+                        .collect::<Vec<_>>()
+                        .join(" and ")
+                }
+            )));
+        }
+        let kind = kinds[0].to_string();
+        PlacementDef::deserialize(v).map_err(|e| {
+            let m = plain_message(&e.to_string()).replace('\n', " ");
+            D::Error::custom(format!("placement.{kind}: {m}"))
+        })
+    }
+}
+
+/// A TOML value's kind in words, for messages.
+fn describe_value(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => format!("the string \"{s}\""),
+        toml::Value::Integer(_) | toml::Value::Float(_) => "a number".into(),
+        toml::Value::Boolean(_) => "a boolean".into(),
+        toml::Value::Datetime(_) => "a date".into(),
+        toml::Value::Array(_) => "an array".into(),
+        toml::Value::Table(_) => "a table".into(),
+    }
+}
+
+/// A serde message in a scenario file's terms: Rust type names (`struct WheelOptions`,
+/// `usize`, `f32`) become "a table", "a whole number", "a number".
+pub(crate) fn plain_message(m: &str) -> String {
+    let mut out = String::with_capacity(m.len());
+    let mut rest = m.trim();
+    while let Some(i) = rest.find("expected ") {
+        out.push_str(&rest[..i + "expected ".len()]);
+        rest = &rest[i + "expected ".len()..];
+        let word_end = |s: &str| {
+            s.find(|c: char| !(c.is_alphanumeric() || c == '_'))
+                .unwrap_or(s.len())
+        };
+        if let Some(after) = rest.strip_prefix("struct ") {
+            out.push_str("a table");
+            rest = &after[word_end(after)..];
+            continue;
+        }
+        let w = word_end(rest);
+        let plain = match &rest[..w] {
+            "usize" | "u8" | "u16" | "u32" | "u64" | "isize" | "i8" | "i16" | "i32" | "i64" => {
+                Some("a whole number")
+            }
+            "f32" | "f64" => Some("a number"),
+            _ => None,
+        };
+        if let Some(p) = plain {
+            out.push_str(p);
+            rest = &rest[w..];
+        }
+    }
+    out.push_str(rest);
+    out
 }
 
 /// Wheel speed errors of a robot group: a wheel told to turn at `v` (after the model's speed
@@ -1131,7 +1264,7 @@ impl Scenario {
             });
         }
         let spec: ScenarioSpec = toml::from_str(text).map_err(|e| {
-            let message = e.message().trim().to_string();
+            let message = plain_message(e.message());
             // A whole-file error (a missing top-level key) has no span: point at the file's
             // first entry, where the key belongs, rather than at 1:1 (a comment, often).
             let at = e
