@@ -361,16 +361,23 @@ impl Store {
     /// with a column each), or refuses a store of a different sweep, telling the user to use
     /// another `what` (`--db` for a sweep).
     pub fn adopt(&self, sweep: &Sweep, path: &Path, what: &str) -> Result<(), CliError> {
-        match self.meta("digest")? {
-            Some(d) if d != sweep.digest => {
+        let digest = self.meta("digest")?;
+        // A store that holds no trial yet (a sweep interrupted before its first trial ended,
+        // its file then mended) is taken over by the sweep run now.
+        let empty = digest.is_some() && self.count()? == 0;
+        match digest {
+            Some(d) if d != sweep.digest && !empty => {
                 return Err(CliError::Input(format!(
-                    "{}: this store holds a different sweep (its base scenario, [set] or duration_s differ from {}); use another {what}",
+                    "{}: this store holds trials of a different sweep (its base scenario, [set] or duration_s differ from {}); use another {what}, or delete the store to start over",
                     path.display(),
                     sweep.file.display()
                 )))
             }
-            Some(_) => {}
-            None => {
+            Some(d) if d == sweep.digest => {}
+            _ => {
+                if empty {
+                    self.set_meta("keys", "[]")?;
+                }
                 self.set_meta("digest", &sweep.digest)?;
                 self.set_meta("name", &sweep.name)?;
                 self.set_meta("sweep", &sweep.file.display().to_string())?;

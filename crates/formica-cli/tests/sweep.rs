@@ -165,7 +165,7 @@ fn killed_sweep_resumes_to_the_rows_of_an_uninterrupted_one() {
     let out = sweep(&other, &killed, &["--dry-run"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        out.status.code() == Some(2) && err.contains("holds a different sweep"),
+        out.status.code() == Some(2) && err.contains("holds trials of a different sweep"),
         "{err}"
     );
     assert_eq!(rows(&killed), before);
@@ -1054,5 +1054,37 @@ fn export_to_a_closed_pipe_ends_quietly() {
         out.stderr.is_empty(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn a_store_without_trials_takes_the_mended_sweep() {
+    // A sweep stopped before its first trial ended (here `--limit 0`), its [set] then mended:
+    // the empty store used to refuse it as "a different sweep"; a store with trials still does.
+    let dir = tmp("empty-store");
+    let file = write_sweep(&dir, "1..2");
+    let db = dir.join("s.db");
+    ok(sweep(&file, &db, &["--limit", "0"]));
+    assert_eq!(count(&db), 0);
+    let text = std::fs::read_to_string(&file).unwrap();
+    std::fs::write(
+        &file,
+        text.replace("\"objects.0.mass\" = 5.0", "\"objects.0.mass\" = 6.0"),
+    )
+    .unwrap();
+    ok(sweep(&file, &db, &["--limit", "1"]));
+    assert_eq!(count(&db), 1);
+    let text = std::fs::read_to_string(&file).unwrap();
+    std::fs::write(
+        &file,
+        text.replace("\"objects.0.mass\" = 6.0", "\"objects.0.mass\" = 7.0"),
+    )
+    .unwrap();
+    let out = sweep(&file, &db, &[]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("a different sweep") && err.contains("delete the store"),
+        "{err}"
     );
 }
