@@ -200,7 +200,14 @@ def read_store(db: PathLike, *, trajectories: bool = False, as_frame: Optional[b
         raise FileNotFoundError(f"{path}: no such result store")
     con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
     try:
-        cur = con.execute("SELECT * FROM trials ORDER BY trial, seed")
+        try:
+            cur = con.execute("SELECT * FROM trials ORDER BY trial, seed")
+        except sqlite3.DatabaseError as e:
+            # A scenario or sweep file, or an SQLite file of something else.
+            raise ValueError(
+                f"{path}: not a result store ({e}); a store is the SQLite file that "
+                "`formica sweep` or formica.sweep writes (its --db / db=)"
+            ) from e
         cols = [c[0] for c in cur.description]
         rows = [dict(zip(cols, r)) for r in cur.fetchall()]
         if not trajectories:

@@ -268,7 +268,19 @@ impl PyScenario {
 /// Reads and checks a scenario file; raises `ScenarioError` with `file:line:column`.
 #[pyfunction]
 pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyScenario> {
-    guard(|| load_file(&path).map_err(|e| scenario_error(py, &e)))
+    guard(|| {
+        load_file(&path).map_err(|e| match formica_cli::not_a_scenario_hint(&path) {
+            // A sweep file or a store handed to `load`: say what it is, as the command does.
+            Some(hint) => crate::input_error(
+                py,
+                &format!(
+                    "{hint} (from Python: formica.sweep(path) for a sweep file, \
+                     formica.read_store(path) for a store)"
+                ),
+            ),
+            None => scenario_error(py, &e),
+        })
+    })
 }
 
 /// Checks scenario text (`file` names it in errors).

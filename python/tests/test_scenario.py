@@ -73,3 +73,12 @@ def test_parse_names_the_given_file():
         formica.parse("[arena\n", "inline.toml")
     sc = formica.parse('[arena]\nsize = [1.0, 1.0]\n', "inline.toml")
     assert sc.name == "inline" and sc.robots == 0
+
+
+def test_load_and_read_store_say_what_a_wrong_file_is():
+    # formica.load of a sweep file said "unknown field `duration_s`"; the command line says
+    # what the file is. read_store of a scenario raised sqlite3's "file is not a database".
+    with pytest.raises(formica.ScenarioError, match="a sweep file"):
+        formica.load("experiments/smoke.toml")
+    with pytest.raises(ValueError, match="not a result store"):
+        formica.read_store("scenarios/seed-transport.toml")

@@ -215,8 +215,9 @@ pub(crate) fn file_kind(path: &std::path::Path) -> Option<FileKind> {
 }
 
 /// For an error loading `path` as a scenario: what the file is instead, and the command that
-/// takes it (`None` if it is not a sweep file or a store).
-pub(crate) fn not_a_scenario_hint(path: &std::path::Path) -> Option<String> {
+/// takes it (`None` if it is not a sweep file or a store). Public for the Python package's
+/// `formica.load`.
+pub fn not_a_scenario_hint(path: &std::path::Path) -> Option<String> {
     let file = path.display();
     match file_kind(path)? {
         FileKind::Sweep => Some(format!(
