@@ -175,7 +175,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if let Some(tp) = &a.trajectories {
         let mut out = open_out(tp)?;
         writeln!(out, "params,seed,t,x,y,theta").context("writing CSV")?;
-        for (p, seed, samples) in store.trajectories(usize::MAX >> 1)? {
+        let stored = store.trajectories(usize::MAX >> 1)?;
+        if stored.is_empty() {
+            eprintln!(
+                "warning: {} holds no trajectories ({} has the header only): sweep with \
+                 --trajectories to store them",
+                a.db.display(),
+                tp.display()
+            );
+        }
+        for (p, seed, samples) in stored {
             let pq = csv_field(&p);
             for [t, x, y, th] in samples {
                 writeln!(out, "{pq},{seed},{t},{x},{y},{th}").context("writing CSV")?;

@@ -127,13 +127,17 @@ impl Replayer {
         let want = &t.provenance.scenario_sha256;
         let name = store_name(&self.db);
         let sc = match self.store.scenario(want)? {
-            Some((file, toml)) if !want.is_empty() => Scenario::parse(&toml, &file)
-                .map_err(|e| {
+            Some((file, toml)) if !want.is_empty() => {
+                Scenario::parse(&toml, &file).map_err(|e| {
                     CliError::Input(format!(
-                        "{name}: trial {}'s stored scenario no longer parses with this Formica: {e}",
+                        "{name}: trial {}'s stored scenario does not parse with this program: {e} \
+                         (a store written by a program with its own controllers or models, such \
+                         as examples/custom-controller's formica-phototaxis, is replayed with \
+                         that program; otherwise the store is from another Formica)",
                         t.trial
                     ))
-                })?,
+                })?
+            }
             _ => self.scenario_from_sweep_file(t)?,
         };
         if !want.is_empty() {
