@@ -396,10 +396,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 if any_success {
                     r.outcome == Outcome::Success
                 } else {
-                    r.object_path_m > 0.01
+                    r.object_path_m.is_some_and(|p| p > 0.01)
                 }
             })
-            .map(|r| r.path_efficiency)
+            .filter_map(|r| r.path_efficiency)
             .collect();
         mean_ci(&xs)
     };
@@ -443,7 +443,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
     } else {
         plotted.iter().cloned().map(Some).collect()
     };
-    let moved = rows.iter().any(|r| r.result.object_path_m > 0.01);
+    let moved = rows
+        .iter()
+        .any(|r| r.result.object_path_m.is_some_and(|p| p > 0.01));
     let extras = numeric_extras(&rows);
     for xk in &x_keys {
         let (x_name, cats, stem): (String, Vec<String>, String) = match xk {

@@ -220,16 +220,18 @@ fn describe(r: &RunResult) -> String {
         _ => String::new(),
     };
     let extra: String = r.extra.iter().map(|(k, v)| format!(", {k} {v}")).collect();
+    let path = match (r.object_path_m, r.path_efficiency) {
+        (Some(p), Some(e)) => format!(", object path {p:.3} m, path efficiency {e:.3}"),
+        _ => String::new(),
+    };
     format!(
-        "{} seed {}: {} after {:.1} s ({} ticks, {} robots){gd}, object path {:.3} m, path efficiency {:.3}{fill}{extra}, {:.2} s wall time",
+        "{} seed {}: {} after {:.1} s ({} ticks, {} robots){gd}{path}{fill}{extra}, {:.2} s wall time",
         r.scenario,
         r.seed,
         r.outcome.name(),
         r.sim_time_s,
         r.ticks,
         r.robots,
-        r.object_path_m,
-        r.path_efficiency,
         r.wall_time_s
     )
 }

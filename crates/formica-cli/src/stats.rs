@@ -99,7 +99,9 @@ pub fn summarize(scenario: &str, results: &[RunResult], judged: bool) -> Summary
         success_ci95: judged.then(|| wilson95(k, n)),
         median_time_s: censored_median(results).filter(|_| judged),
         mean_path_efficiency: mean_of(results, |r| {
-            (r.outcome == Outcome::Success).then_some(r.path_efficiency)
+            (r.outcome == Outcome::Success)
+                .then_some(r.path_efficiency)
+                .flatten()
         })
         .filter(|_| judged),
         outcomes,
@@ -133,9 +135,9 @@ mod tests {
         };
         // A box that never moved still has a small efficiency from its jitter.
         let rs = [
-            r(Outcome::Success, 0.9),
-            r(Outcome::Timeout, 0.1),
-            r(Outcome::Success, 0.7),
+            r(Outcome::Success, Some(0.9)),
+            r(Outcome::Timeout, Some(0.1)),
+            r(Outcome::Success, Some(0.7)),
         ];
         let eff = summarize("s", &rs, true).mean_path_efficiency.unwrap();
         assert!((eff - 0.8).abs() < 1e-12, "{eff}");
@@ -158,6 +160,6 @@ mod tests {
             mean_of(&rs[1..2], |r| r.cavity_robots.map(|n| n as f64)),
             None
         );
-        assert_eq!(mean_of(&[], |r| Some(r.path_efficiency)), None);
+        assert_eq!(mean_of(&[], |r| r.path_efficiency), None);
     }
 }

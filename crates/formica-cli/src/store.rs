@@ -531,8 +531,8 @@ impl Store {
             SqlValue::Real(r.sim_time_s),
             SqlValue::Integer(r.ticks as i64),
             opt_f(r.goal_distance_m),
-            SqlValue::Real(r.object_path_m),
-            SqlValue::Real(r.path_efficiency),
+            opt_f(r.object_path_m),
+            opt_f(r.path_efficiency),
             r.object_robots
                 .map_or(SqlValue::Null, |n| SqlValue::Integer(n as i64)),
             opt_f(r.fill_time_s),

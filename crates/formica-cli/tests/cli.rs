@@ -1156,3 +1156,42 @@ fn seed_range_too_large_is_refused() {
         );
     }
 }
+
+#[test]
+fn a_run_without_an_object_has_no_path_figures() {
+    // Robots alone (the custom-controller example's gathering): no object, so no path length
+    // and no path efficiency; they read 0.000 as if an object had stood still.
+    let dir = tmp("no-object");
+    let file = dir.join("alone.toml");
+    let text = "[arena]\nsize = [4.0, 4.0]\n\n[[robots]]\ncount = 2\ncontroller = \"random-walk\"\nplacement = { poses = [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]] }\n";
+    std::fs::write(&file, text).unwrap();
+    let out = ok(formica()
+        .arg("run")
+        .arg(&file)
+        .args(["--duration", "2", "--json"])
+        .output()
+        .unwrap());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["object_path_m"].is_null(), "{v}");
+    assert!(v["path_efficiency"].is_null(), "{v}");
+    let out = ok(formica()
+        .arg("run")
+        .arg(&file)
+        .args(["--duration", "2"])
+        .output()
+        .unwrap());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(!text.contains("path efficiency"), "{text}");
+    // With an object, both are numbers.
+    let out = ok(formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--duration", "2", "--json"])
+        .output()
+        .unwrap());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        v["object_path_m"].is_f64() && v["path_efficiency"].is_f64(),
+        "{v}"
+    );
+}

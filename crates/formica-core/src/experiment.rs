@@ -93,10 +93,11 @@ pub struct RunResult {
     pub controller: String,
     /// Final distance from the object's centre to the goal (m); null without goal or object.
     pub goal_distance_m: Option<f64>,
-    /// Length of the object's path (m).
-    pub object_path_m: f64,
-    /// Straight-line displacement / path length (0 when the object never moved).
-    pub path_efficiency: f64,
+    /// Length of the object's path (m); null without a target object.
+    pub object_path_m: Option<f64>,
+    /// Shortest way from start to end (straight, or round obstacles) / path length (0 when the
+    /// object never moved); null without a target object.
+    pub path_efficiency: Option<f64>,
     /// Robots attached to the object at the end.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub object_robots: Option<usize>,
@@ -374,7 +375,7 @@ impl LoopFunctions for TransportHooks {
         if let Some(t) = world.target {
             let now = world.object_center(t);
             r.goal_distance_m = world.goal().map(|g| f64::from((now - g).length()));
-            r.object_path_m = self.path_m;
+            r.object_path_m = Some(self.path_m);
             let start = world.objects[t].start;
             let disp = f64::from((now - start).length());
             // Around obstacles, the shortest path on a visibility graph (no extra walls and no
@@ -385,11 +386,11 @@ impl LoopFunctions for TransportHooks {
             } else {
                 disp
             };
-            r.path_efficiency = if self.path_m > 1e-9 {
+            r.path_efficiency = Some(if self.path_m > 1e-9 {
                 (optimal / self.path_m).min(1.0)
             } else {
                 0.0
-            };
+            });
         }
     }
 }

@@ -274,7 +274,7 @@
     $('s-seed').textContent = String(st.seed);
     $('s-robots').textContent = `${st.released} of ${st.robots_total} released`;
     $('s-goal').textContent = st.goal_distance_m == null ? '-' : st.goal_distance_m.toFixed(3) + ' m';
-    $('s-path').textContent = st.object_path_m.toFixed(3) + ' m';
+    $('s-path').textContent = st.object_path_m == null ? '–' : st.object_path_m.toFixed(3) + ' m';
     $('s-states').textContent = Object.entries(st.states).map(([k, v]) => `${k} ${v}`).join(', ');
     $('play').textContent = st.playing ? 'Pause' : 'Play';
     $('play').disabled = !!st.outcome;

@@ -251,7 +251,7 @@ struct StateOut<'a> {
     released: usize,
     robots_total: usize,
     goal_distance_m: Option<f64>,
-    object_path_m: f64,
+    object_path_m: Option<f64>,
     states: BTreeMap<&'static str, usize>,
     /// Where each light is now (a light with a `path` moves).
     lights: Vec<[f32; 2]>,
