@@ -45,6 +45,17 @@ fn record_writes_an_animated_gif() {
     }
 }
 
+/// The whole answer to `GET path` from the server at `authority`.
+fn get(authority: &str, path: &str) -> Result<String, String> {
+    let mut s = std::net::TcpStream::connect(authority).map_err(|e| e.to_string())?;
+    s.set_read_timeout(Some(Duration::from_secs(10)))
+        .map_err(|e| e.to_string())?;
+    write!(s, "GET {path} HTTP/1.1\r\nHost: {authority}\r\n\r\n").map_err(|e| e.to_string())?;
+    let mut resp = String::new();
+    let _ = s.read_to_string(&mut resp);
+    Ok(resp)
+}
+
 #[test]
 fn serve_listens_on_loopback_and_answers() {
     // `--set` and `--controller` as `run` takes them (the viewer lacked both).
@@ -73,23 +84,11 @@ fn serve_listens_on_loopback_and_answers() {
         if !authority.starts_with("127.0.0.1:") {
             return Err(format!("listening on {authority}, not loopback"));
         }
-        let mut s = std::net::TcpStream::connect(&authority).map_err(|e| e.to_string())?;
-        s.set_read_timeout(Some(Duration::from_secs(10)))
-            .map_err(|e| e.to_string())?;
-        write!(s, "GET /api/state HTTP/1.1\r\nHost: {authority}\r\n\r\n")
-            .map_err(|e| e.to_string())?;
-        let mut resp = String::new();
-        let _ = s.read_to_string(&mut resp);
+        let resp = get(&authority, "/api/state")?;
         if !resp.starts_with("HTTP/1.1 200") || !resp.contains("\"tick\":0") {
             return Err(format!("unexpected answer: {resp:.200}"));
         }
-        let mut s = std::net::TcpStream::connect(&authority).map_err(|e| e.to_string())?;
-        s.set_read_timeout(Some(Duration::from_secs(10)))
-            .map_err(|e| e.to_string())?;
-        write!(s, "GET /api/scene HTTP/1.1\r\nHost: {authority}\r\n\r\n")
-            .map_err(|e| e.to_string())?;
-        let mut resp = String::new();
-        let _ = s.read_to_string(&mut resp);
+        let resp = get(&authority, "/api/scene")?;
         if !resp.contains("\"robots\":3") {
             return Err(format!("--set robots.0.count=3 not applied: {resp:.300}"));
         }
