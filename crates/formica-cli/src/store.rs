@@ -376,6 +376,12 @@ impl Store {
             Some(d) if d == sweep.digest => {}
             _ => {
                 if empty {
+                    // The old sweep's varied keys go with it (their columns are empty).
+                    for k in self.keys()?.iter().filter(|k| !sweep.keys.contains(k)) {
+                        self.conn
+                            .execute(&format!("ALTER TABLE trials DROP COLUMN {}", ident(k)), [])
+                            .with_context(|| format!("dropping column {k}"))?;
+                    }
                     self.set_meta("keys", "[]")?;
                 }
                 self.set_meta("digest", &sweep.digest)?;

@@ -1067,13 +1067,18 @@ fn a_store_without_trials_takes_the_mended_sweep() {
     ok(sweep(&file, &db, &["--limit", "0"]));
     assert_eq!(count(&db), 0);
     let text = std::fs::read_to_string(&file).unwrap();
+    // Mended: another mass, and the swarm size no longer varied (its empty column goes).
     std::fs::write(
         &file,
-        text.replace("\"objects.0.mass\" = 5.0", "\"objects.0.mass\" = 6.0"),
+        text.replace("\"objects.0.mass\" = 5.0", "\"objects.0.mass\" = 6.0")
+            .replace("\"robots.0.count\" = [6, 12]\n", ""),
     )
     .unwrap();
     ok(sweep(&file, &db, &["--limit", "1"]));
     assert_eq!(count(&db), 1);
+    let header = rows(&db)[0].clone();
+    assert!(!header.contains("robots.0.count"), "{header}");
+    assert!(header.contains("robots.0.controller"), "{header}");
     let text = std::fs::read_to_string(&file).unwrap();
     std::fs::write(
         &file,
