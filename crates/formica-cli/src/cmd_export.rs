@@ -66,57 +66,12 @@ fn prepare_out(path: &Path, db: &Path) -> Result<(), CliError> {
 /// Opens `path` (`-`: standard output) for writing; [`prepare_out`] has checked it.
 fn open_out(path: &Path) -> Result<Box<dyn Write>, CliError> {
     Ok(if path.as_os_str() == "-" {
-        Box::new(Stdout {
-            out: std::io::stdout().lock(),
-            closed: false,
-        })
+        Box::new(std::io::BufWriter::new(crate::console::Stdout))
     } else {
         Box::new(std::io::BufWriter::new(
             std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
         ))
     })
-}
-
-/// Standard output that drops what is written once its reader has gone (`formica export DB
-/// --csv - | head`), as `run` and the other commands do, instead of failing with a broken pipe.
-struct Stdout<W: Write> {
-    out: W,
-    closed: bool,
-}
-
-impl<W: Write> Stdout<W> {
-    fn guard(&mut self, r: std::io::Result<()>) -> std::io::Result<()> {
-        match r {
-            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
-                self.closed = true;
-                Ok(())
-            }
-            r => r,
-        }
-    }
-}
-
-impl<W: Write> Write for Stdout<W> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        if self.closed {
-            return Ok(buf.len());
-        }
-        match self.out.write(buf) {
-            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
-                self.closed = true;
-                Ok(buf.len())
-            }
-            r => r,
-        }
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        if self.closed {
-            return Ok(());
-        }
-        let r = self.out.flush();
-        self.guard(r)
-    }
 }
 
 /// The export's columns: head, varied keys, provenance, metrics, end-of-run fields.

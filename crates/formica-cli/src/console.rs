@@ -31,3 +31,34 @@ pub fn line(args: std::fmt::Arguments) {
         CLOSED.store(true, Ordering::Relaxed);
     }
 }
+
+/// Stdout as a writer for bulk output (`export --csv -`): once the reader has gone, what is
+/// written is dropped, as [`line`] drops lines, instead of failing with a broken pipe. Other
+/// write errors are returned.
+pub struct Stdout;
+
+impl Stdout {
+    /// `r`, or `ok` once the pipe is found closed (now or before).
+    fn unless_closed<T>(r: impl FnOnce() -> std::io::Result<T>, ok: T) -> std::io::Result<T> {
+        if CLOSED.load(Ordering::Relaxed) {
+            return Ok(ok);
+        }
+        match r() {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                CLOSED.store(true, Ordering::Relaxed);
+                Ok(ok)
+            }
+            r => r,
+        }
+    }
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Self::unless_closed(|| std::io::stdout().lock().write(buf), buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Self::unless_closed(|| std::io::stdout().lock().flush(), ())
+    }
+}
