@@ -361,22 +361,20 @@ impl Store {
     /// with a column each), or refuses a store of a different sweep, telling the user to use
     /// another `what` (`--db` for a sweep).
     pub fn adopt(&self, sweep: &Sweep, path: &Path, what: &str) -> Result<(), CliError> {
-        let digest = self.meta("digest")?;
-        // A store that holds no trial yet (a sweep interrupted before its first trial ended,
-        // its file then mended) is taken over by the sweep run now.
-        let empty = digest.is_some() && self.count()? == 0;
-        match digest {
-            Some(d) if d != sweep.digest && !empty => {
+        match self.meta("digest")? {
+            Some(d) if d == sweep.digest => {}
+            Some(_) if self.count()? > 0 => {
                 return Err(CliError::Input(format!(
                     "{}: this store holds trials of a different sweep (its base scenario, [set] or duration_s differ from {}); use another {what}, or delete the store to start over",
                     path.display(),
                     sweep.file.display()
                 )))
             }
-            Some(d) if d == sweep.digest => {}
-            _ => {
-                if empty {
-                    // The old sweep's varied keys go with it (their columns are empty).
+            old => {
+                if old.is_some() {
+                    // A store of another sweep that holds no trial yet (one interrupted before
+                    // its first trial ended, its file then mended) is taken over; the old
+                    // sweep's varied keys go with it (their columns are empty).
                     for k in self.keys()?.iter().filter(|k| !sweep.keys.contains(k)) {
                         self.conn
                             .execute(&format!("ALTER TABLE trials DROP COLUMN {}", ident(k)), [])
