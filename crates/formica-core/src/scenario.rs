@@ -458,25 +458,21 @@ impl<'de> Deserialize<'de> for Placement {
                 describe_value(&v)
             )));
         };
-        let kinds: Vec<&str> = t
+        let (kinds, others): (Vec<&str>, Vec<&str>) = t
             .keys()
             .map(String::as_str)
-            .filter(|k| KINDS.contains(k))
-            .collect();
-        let others: Vec<&str> = t
-            .keys()
-            .map(String::as_str)
-            .filter(|k| !KINDS.contains(k))
-            .collect();
+            .partition(|k| KINDS.contains(k));
         if !others.is_empty() {
-            let inside = if others
+            // A key of a kind's own table written beside it (an ARGoS habit for the heading).
+            let inside = others
                 .iter()
-                .any(|k| ["heading_deg", "min", "max", "center", "spacing", "columns"].contains(k))
-            {
-                format!(" (`{}` goes inside the kind's own table: {EXAMPLE} with `heading_deg = 0.0` beside `min` and `max`)", others[0])
-            } else {
-                String::new()
-            };
+                .find(|k| ["heading_deg", "min", "max", "center", "spacing", "columns"].contains(k))
+                .map_or(String::new(), |k| {
+                    format!(
+                        " (`{k}` goes inside the kind's own table, as in placement = {{ random = \
+                         {{ min = [-1.0, -1.0], max = [1.0, 1.0], heading_deg = 0.0 }} }})"
+                    )
+                });
             return Err(D::Error::custom(format!(
                 "unknown key{} {} in a placement: expected exactly one of `random`, `grid` or \
                  `poses`{inside}",
