@@ -7,7 +7,7 @@ use std::process::Output;
 use std::time::{Duration, Instant};
 
 mod common;
-use common::{formica, ok, repo};
+use common::{formica, input_error, ok, repo};
 
 fn tmp(name: &str) -> PathBuf {
     common::tmp("sweep", name)
@@ -1085,9 +1085,7 @@ fn a_store_without_trials_takes_the_mended_sweep() {
         text.replace("\"objects.0.mass\" = 6.0", "\"objects.0.mass\" = 7.0"),
     )
     .unwrap();
-    let out = sweep(&file, &db, &[]);
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = input_error(sweep(&file, &db, &[]));
     assert!(
         err.contains("a different sweep") && err.contains("delete the store"),
         "{err}"

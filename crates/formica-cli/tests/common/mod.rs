@@ -38,3 +38,12 @@ pub fn ok(out: Output) -> Output {
     );
     out
 }
+
+/// The stderr of `out`, after asserting that the command refused its input (exit code 2)
+/// without panicking.
+pub fn input_error(out: Output) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
