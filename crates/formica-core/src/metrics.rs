@@ -208,7 +208,18 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
             edges.push((ring[i], ring[(i + 1) % ring.len()]));
         }
     }
-    pack_discs(&hull, radius, &edges, fits).max(pack_deepest_first(&hull, radius, fits))
+    // How far a disc at `p` is from fitting; cheap (the hull alone, an upper bound) far outside.
+    let body = world.objects[obj].body;
+    let need = radius - CAVITY_SLACK_M;
+    let margin = |p: Vec2| {
+        let d = inside_depth(&hull, p) - need;
+        if d < -radius {
+            d
+        } else {
+            d.min(world.physics.distance_to(body, p) - need)
+        }
+    };
+    pack_discs(&hull, radius, &edges, fits).max(pack_deepest_first(&hull, radius, margin, fits))
 }
 
 /// Where a robot disc of some radius can go from outside an object's hull without meeting
@@ -312,7 +323,20 @@ impl Reach {
 /// deepest inside `hull` first, each kept when it fits and is clear of those kept. Where the
 /// cavity is a ring of separate pockets (between a star's points) no lattice puts a disc in
 /// each; this does, deepest first, as robots fill them.
-pub fn pack_deepest_first(hull: &[Vec2], radius: f32, fits: impl Fn(Vec2) -> bool) -> usize {
+///
+/// `margin` says how far a disc centred at a point is from fitting: at least 0 where it fits,
+/// and changing by no more than the distance moved, or an upper bound of such a function (the
+/// least of the centre's distances to the hull's edges and to the object, less the disc's
+/// radius). Where no grid point of a cell fits, the cell is searched by halving (down to a
+/// quarter of a millimetre), skipping every part where `margin` shows nothing can fit: a pocket
+/// whose room for a centre is smaller than the grid, which a robot creeping into it finds, is
+/// found too. The count is the larger of the packings with and without these points.
+pub fn pack_deepest_first(
+    hull: &[Vec2],
+    radius: f32,
+    margin: impl Fn(Vec2) -> f32,
+    fits: impl Fn(Vec2) -> bool,
+) -> usize {
     if hull.len() < 3 || !(radius > 0.0) {
         return 0;
     }
@@ -325,26 +349,65 @@ pub fn pack_deepest_first(hull: &[Vec2], radius: f32, fits: impl Fn(Vec2) -> boo
         (extent.x / step).ceil() as usize + 1,
         (extent.y / step).ceil() as usize + 1,
     );
-    let mut candidates: Vec<(f32, Vec2)> = Vec::new();
+    let mut on_grid: Vec<(f32, Vec2)> = Vec::new();
+    let mut found: Vec<(f32, Vec2)> = Vec::new();
     for iy in 0..ny {
         for ix in 0..nx {
             let p = lo + Vec2::new(ix as f32 * step, iy as f32 * step);
             let depth = inside_depth(hull, p);
             if depth >= radius - CAVITY_SLACK_M && fits(p) {
-                candidates.push((depth, p));
+                on_grid.push((depth, p));
+            } else if let Some(q) = room_in_cell(p, 0.5 * step, &margin, &fits) {
+                found.push((inside_depth(hull, q), q));
             }
         }
     }
-    // Deepest first; ties in grid order (the sort is stable).
-    candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let gap = 2.0 * radius * (1.0 + 1e-4);
-    let mut kept: Vec<Vec2> = Vec::new();
-    for (_, p) in candidates {
-        if kept.iter().all(|q| (p - *q).length() >= gap) {
-            kept.push(p);
+    let greedy = |mut candidates: Vec<(f32, Vec2)>| {
+        // Deepest first; ties in grid order (the sort is stable).
+        candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let gap = 2.0 * radius * (1.0 + 1e-4);
+        let mut kept: Vec<Vec2> = Vec::new();
+        for (_, p) in candidates {
+            if kept.iter().all(|q| (p - *q).length() >= gap) {
+                kept.push(p);
+            }
         }
+        kept.len()
+    };
+    let plain = greedy(on_grid.clone());
+    if found.is_empty() {
+        return plain;
     }
-    kept.len()
+    on_grid.extend(found);
+    plain.max(greedy(on_grid))
+}
+
+/// Smallest half-side (m) of a cell that [`room_in_cell`] splits.
+const ROOM_CELL_M: f32 = 2.5e-4;
+
+/// A point of the square of half-side `half` around `c` where a disc fits (`fits`), searched
+/// by splitting the square in four, depth first; a square whose centre's `margin` is below
+/// `-half sqrt 2` holds none (`margin` changes by no more than the distance moved).
+fn room_in_cell(
+    c: Vec2,
+    half: f32,
+    margin: &impl Fn(Vec2) -> f32,
+    fits: &impl Fn(Vec2) -> bool,
+) -> Option<Vec2> {
+    let m = margin(c);
+    if !(m >= -half * std::f32::consts::SQRT_2) {
+        return None;
+    }
+    if m >= 0.0 && fits(c) {
+        return Some(c);
+    }
+    if half < ROOM_CELL_M {
+        return None;
+    }
+    let q = 0.5 * half;
+    [(-q, -q), (q, -q), (-q, q), (q, q)]
+        .into_iter()
+        .find_map(|(dx, dy)| room_in_cell(c + Vec2::new(dx, dy), q, margin, fits))
 }
 
 /// Lattice packing of discs of `radius` into the convex region `hull`, where `fits` says

@@ -1582,6 +1582,12 @@ impl Physics {
         col.shape().contains_point(col.position(), point)
     }
 
+    /// Distance (m) from `point` to a body's shape; 0 inside it.
+    pub fn distance_to(&self, id: BodyId, point: Vec2) -> f32 {
+        let col = &self.world.colliders[id.collider];
+        col.shape().distance_to_point(col.position(), point, true)
+    }
+
     /// Whether a disc of `radius` at `center` overlaps a body's shape (touching counts). Robust
     /// where a point projection is not: a disc centred on an edge of a concave polygon's piece
     /// overlaps it, whatever the rounding.

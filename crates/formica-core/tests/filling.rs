@@ -288,6 +288,58 @@ shape = { polygon = [[0.0, 0.5], [-0.1293, 0.178], [-0.4755, 0.1545], [-0.2092, 
 }
 
 #[test]
+fn cavity_capacity_finds_pockets_smaller_than_its_grid() {
+    // A six-point star drawn at random (`python3 experiments/random-cases.py 9`, shape 3):
+    // one disc fits wholly inside each of its six pockets, with room for its centre of a few
+    // millimetres, which the packing's grid (a quarter radius, 17.6 mm) missed in three of
+    // them: capacity 3, while fillers got 5 or 6 robots wholly inside in 8 runs of 10.
+    let body = "[[objects]]\nmovable = false\nyaw_deg = 71.3\nshape = { polygon = [[0.409, \
+                0.038], [0.171, 0.077], [0.186, 0.366], [0.011, 0.188], [-0.23, 0.34], [-0.16, \
+                0.1], [-0.409, -0.032], [-0.169, -0.082], [-0.175, -0.371], [0.0, -0.188], \
+                [0.21, -0.352], [0.164, -0.093]] }\n";
+    let sc = scenario(&format!(
+        "{body}{}",
+        robot_group("constant", "left = 0.0", &[[2.0, 1.0, 0.0]])
+    ));
+    let run = start(&sc, 1);
+    let (world, r) = (&run.world, 0.0704);
+    // By the definition, on a 0.5 mm grid round each pocket's deepest point (the star's inner
+    // vertices, turned as the object): every centre that fits, grouped by pocket.
+    let hull = formica::metrics::object_hull(world, 0);
+    let inner = world.object_outlines(0)[0]
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(i, _)| i % 2 == 1)
+        .map(|(_, v)| v)
+        .collect::<Vec<_>>();
+    assert_eq!(inner.len(), 6);
+    let mut rooms = Vec::new();
+    for apex in inner {
+        let mut room: Vec<Vec2> = Vec::new();
+        for iy in -240..=240 {
+            for ix in -240..=240 {
+                let p = apex + Vec2::new(ix as f32, iy as f32) * 5e-4;
+                if formica::metrics::disc_in_cavity(world, 0, &hull, p, r) {
+                    room.push(p);
+                }
+            }
+        }
+        rooms.push(room);
+    }
+    // A disc fits in each pocket, and never two: every pocket's room is narrower than a disc.
+    for (k, room) in rooms.iter().enumerate() {
+        assert!(!room.is_empty(), "pocket {k}: no room");
+        let across = room
+            .iter()
+            .flat_map(|a| room.iter().map(move |b| (*a - *b).length()))
+            .fold(0.0f32, f32::max);
+        assert!(across < 2.0 * r, "pocket {k}: room {across} m across");
+    }
+    assert_eq!(formica::metrics::cavity_capacity(world, 0, r), 6);
+}
+
+#[test]
 fn cavity_capacity_counts_only_room_a_robot_can_reach() {
     // A bottle: a 0.6 x 0.6 m room behind a mouth `mouth` m wide in a 0.1 m thick wall, open
     // at +x. The room alone holds 16 discs of 0.0704 m (centres over 0.459 m each way: a
@@ -344,13 +396,13 @@ fn deepest_first_packing_keeps_discs_apart_and_inside() {
         Vec2::new(1.0, 0.3),
         Vec2::new(0.0, 0.3),
     ];
-    let n = formica::metrics::pack_deepest_first(&hull, 0.07, |_| true);
+    let n = formica::metrics::pack_deepest_first(&hull, 0.07, |_| 1.0, |_| true);
     // Deepest first fills the middle line first (depth 0.15), then what is left beside it: on
     // a grid of 0.0175 m, at least 6 and never more than the 7 that fit.
     assert!((6..=7).contains(&n), "{n}");
     // Nothing fits where `fits` refuses everything.
     assert_eq!(
-        formica::metrics::pack_deepest_first(&hull, 0.07, |_| false),
+        formica::metrics::pack_deepest_first(&hull, 0.07, |_| f32::NEG_INFINITY, |_| false),
         0
     );
 }
