@@ -208,18 +208,9 @@ pub fn cavity_capacity(world: &World, obj: usize, radius: f32) -> usize {
             edges.push((ring[i], ring[(i + 1) % ring.len()]));
         }
     }
-    // How far a disc at `p` is from fitting; cheap (the hull alone, an upper bound) far outside.
     let body = world.objects[obj].body;
-    let need = radius - CAVITY_SLACK_M;
-    let margin = |p: Vec2| {
-        let d = inside_depth(&hull, p) - need;
-        if d < -radius {
-            d
-        } else {
-            d.min(world.physics.distance_to(body, p) - need)
-        }
-    };
-    pack_discs(&hull, radius, &edges, fits).max(pack_deepest_first(&hull, radius, margin, fits))
+    let clearance = |p: Vec2| world.physics.distance_to(body, p) - (radius - CAVITY_SLACK_M);
+    pack_discs(&hull, radius, &edges, fits).max(pack_deepest_first(&hull, radius, clearance, fits))
 }
 
 /// Where a robot disc of some radius can go from outside an object's hull without meeting
@@ -324,17 +315,18 @@ impl Reach {
 /// cavity is a ring of separate pockets (between a star's points) no lattice puts a disc in
 /// each; this does, deepest first, as robots fill them.
 ///
-/// `margin` says how far a disc centred at a point is from fitting: at least 0 where it fits,
-/// and changing by no more than the distance moved, or an upper bound of such a function (the
-/// least of the centre's distances to the hull's edges and to the object, less the disc's
-/// radius). Where no grid point of a cell fits, the cell is searched by halving (down to a
-/// quarter of a millimetre), skipping every part where `margin` shows nothing can fit: a pocket
-/// whose room for a centre is smaller than the grid, which a robot creeping into it finds, is
-/// found too. The count is the larger of the packings with and without these points.
+/// `clearance` says how far a disc centred at a point is from meeting what it must not (for a
+/// cavity, the centre's distance to the object less the disc's radius): at least 0 where the
+/// disc fits, and changing by no more than the distance moved, or an upper bound of such a
+/// function. Where no grid point of a cell fits, the cell is searched by halving (down to a
+/// quarter of a millimetre), skipping every part where the clearance, or the depth inside
+/// `hull`, shows nothing can fit: a pocket whose room for a centre is smaller than the grid,
+/// which a robot creeping into it finds, is found too. The count is the larger of the packings
+/// with and without these points.
 pub fn pack_deepest_first(
     hull: &[Vec2],
     radius: f32,
-    margin: impl Fn(Vec2) -> f32,
+    clearance: impl Fn(Vec2) -> f32,
     fits: impl Fn(Vec2) -> bool,
 ) -> usize {
     if hull.len() < 3 || !(radius > 0.0) {
@@ -349,15 +341,27 @@ pub fn pack_deepest_first(
         (extent.x / step).ceil() as usize + 1,
         (extent.y / step).ceil() as usize + 1,
     );
+    let need = radius - CAVITY_SLACK_M;
+    let ok = |p: Vec2| inside_depth(hull, p) >= need && fits(p);
+    // How far a disc at `p` is from fitting; far outside the hull, the hull alone (an upper
+    // bound, and cheap).
+    let margin = |p: Vec2| {
+        let d = inside_depth(hull, p) - need;
+        if d < -radius {
+            d
+        } else {
+            d.min(clearance(p))
+        }
+    };
     let mut on_grid: Vec<(f32, Vec2)> = Vec::new();
     let mut found: Vec<(f32, Vec2)> = Vec::new();
     for iy in 0..ny {
         for ix in 0..nx {
             let p = lo + Vec2::new(ix as f32 * step, iy as f32 * step);
             let depth = inside_depth(hull, p);
-            if depth >= radius - CAVITY_SLACK_M && fits(p) {
+            if depth >= need && fits(p) {
                 on_grid.push((depth, p));
-            } else if let Some(q) = room_in_cell(p, 0.5 * step, &margin, &fits) {
+            } else if let Some(q) = room_in_cell(p, 0.5 * step, &margin, &ok) {
                 found.push((inside_depth(hull, q), q));
             }
         }

@@ -396,7 +396,7 @@ fn deepest_first_packing_keeps_discs_apart_and_inside() {
         Vec2::new(1.0, 0.3),
         Vec2::new(0.0, 0.3),
     ];
-    let n = formica::metrics::pack_deepest_first(&hull, 0.07, |_| 1.0, |_| true);
+    let n = formica::metrics::pack_deepest_first(&hull, 0.07, |_| f32::INFINITY, |_| true);
     // Deepest first fills the middle line first (depth 0.15), then what is left beside it: on
     // a grid of 0.0175 m, at least 6 and never more than the 7 that fit.
     assert!((6..=7).contains(&n), "{n}");
