@@ -134,11 +134,18 @@ def way_round(obj, goal, bars, half, clearance):
 
 
 def main():
-    # An optional seed draws another set (experiments/random-seed8.toml: the second draw).
+    # An optional seed draws another set (experiments/random-seed8.toml: the second draw), and
+    # an optional robot model runs the same draw with that model in every case
+    # (experiments/random-seed9-e-puck.toml: `random-cases.py 9 e-puck`).
     seed = int(sys.argv[1]) if len(sys.argv) > 1 else SEED
-    name = "random" if seed == SEED else f"random-seed{seed}"
+    model = sys.argv[2] if len(sys.argv) > 2 else None
+    name = "random" if seed == SEED and model is None else f"random-seed{seed}"
+    if model is not None:
+        name += f"-{model}"
     rng = random.Random(seed)
-    args = "" if seed == SEED else f" {seed}"
+    args = "" if seed == SEED and model is None else f" {seed}"
+    if model is not None:
+        args += f" {model}"
     print("# Objects, placements and obstacle maps drawn at random by experiments/random-cases.py")
     print(f"# (seed {seed}: `python3 experiments/random-cases.py{args}` gives this file back). Report:")
     print(f"# results/{name}/summary.md; discussion on docs/src/results/unseen.md. 10 seeds per case.")
@@ -148,6 +155,8 @@ def main():
     print()
     print("[set]")
     print('"robots.0.sensors.noise" = "realistic"')
+    if model is not None:
+        print(f'"robots.0.model" = "{model}"')
     print()
     print("# --- random shapes at random places in the open: occlusion and fill-transport ------------")
     drawn = []
