@@ -26,6 +26,12 @@ pub const MAX_AREA_SAMPLES: f32 = 250_000.0;
 /// shrinks for large objects).
 pub const MAX_PACKING_POINTS: usize = 400_000;
 
+/// Most lattice points the trials of [`pack_discs`] examine together (each a disc test against
+/// the object): above this, fewer rotations, offsets and edges are tried, so that a large
+/// object's capacity takes seconds, not minutes. Objects up to about 8 m across (a Khepera
+/// IV's radius) get every trial.
+pub const MAX_PACKING_WORK: usize = 4_000_000;
+
 /// Areas of the pseudo object (object + attached robots).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FillAreas {
@@ -370,13 +376,26 @@ pub fn pack_deepest_first(
         // Deepest first; ties in grid order (the sort is stable).
         candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
         let gap = 2.0 * radius * (1.0 + 1e-4);
-        let mut kept: Vec<Vec2> = Vec::new();
+        // Kept discs by cell of side `gap`: a disc nearer than `gap` lies in one of the nine
+        // cells around (a large cavity keeps thousands; comparing each candidate with every
+        // one kept took minutes).
+        let cell = |p: Vec2| ((p.x / gap).floor() as i64, (p.y / gap).floor() as i64);
+        let mut kept: std::collections::HashMap<(i64, i64), Vec<Vec2>> = Default::default();
+        let mut count = 0;
         for (_, p) in candidates {
-            if kept.iter().all(|q| (p - *q).length() >= gap) {
-                kept.push(p);
+            let (cx, cy) = cell(p);
+            let clear = (cx - 1..=cx + 1).all(|x| {
+                (cy - 1..=cy + 1).all(|y| {
+                    kept.get(&(x, y))
+                        .is_none_or(|qs| qs.iter().all(|q| (p - *q).length() >= gap))
+                })
+            });
+            if clear {
+                kept.entry((cx, cy)).or_default().push(p);
+                count += 1;
             }
         }
-        kept.len()
+        count
     };
     let plain = greedy(on_grid.clone());
     if found.is_empty() {
@@ -417,8 +436,9 @@ fn room_in_cell(
 /// Lattice packing of discs of `radius` into the convex region `hull`, where `fits` says
 /// whether a disc centred at a point is allowed: the best of lattices at general rotations and
 /// offsets and of lattices whose rows run along one of `edges`, the first row `radius` from it.
-/// Bounded cost: trials thin out so that no more than about [`MAX_PACKING_POINTS`] lattice
-/// points are examined per kind of trial.
+/// Bounded cost: trials thin out so that no more than about [`MAX_PACKING_WORK`] lattice
+/// points are examined in all (or, for the largest lattices, the fewest trials: two general
+/// lattices and four edges).
 pub fn pack_discs(
     hull: &[Vec2],
     radius: f32,
@@ -434,15 +454,17 @@ pub fn pack_discs(
     let d = 2.0 * radius * (1.0 + 1e-4);
     let per_axis = (2.0 * half_diag / d).ceil() as i64 + 1;
     let points = (per_axis * per_axis) as usize;
-    // 2 lattices x 12 rotations x 16 offsets; fewer if the lattice is large.
-    let trials = (MAX_PACKING_POINTS * 384 / points.max(1)).clamp(2, 384);
-    let (rotations, offsets) = if trials >= 384 {
-        (12, 4)
-    } else if trials >= 96 {
-        (6, 2)
-    } else {
-        (1, 1)
-    };
+    // 2 lattices x (12 rotations x 16 offsets, and 16 slides either side of up to 64 edges);
+    // fewer if the lattice is large.
+    let all_edges = edges.len().min(64);
+    let (rotations, offsets, edge_count, along) = [
+        (12, 4, all_edges, 16),
+        (6, 2, all_edges, 16),
+        (1, 1, edges.len().min(4), 2),
+    ]
+    .into_iter()
+    .find(|&(r, o, e, a)| points * 2 * (r * o * o + 2 * e * a) <= MAX_PACKING_WORK)
+    .unwrap_or((1, 1, edges.len().min(4), 2));
     let count = |hex: bool, t: f32, o: Vec2| {
         let (skew, row) = if hex {
             (0.5 * d, d * 0.866_025_4)
@@ -489,8 +511,7 @@ pub fn pack_discs(
             }
         }
         // Rows along an edge, the first `radius` inside it (either side), slid along it.
-        let along = if trials >= 96 { 16 } else { 2 };
-        for &(a, b) in edges.iter().take(if trials >= 96 { 64 } else { 4 }) {
+        for &(a, b) in edges.iter().take(edge_count) {
             let e = b - a;
             if e.length() < 1e-6 {
                 continue;

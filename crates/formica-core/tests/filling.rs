@@ -408,6 +408,34 @@ fn deepest_first_packing_keeps_discs_apart_and_inside() {
 }
 
 #[test]
+fn lattice_packing_examines_a_bounded_number_of_points() {
+    // A 20 m square: every rotation, offset and edge of the small objects' packing would test
+    // some 13 million lattice points against the object; the trials thin out to stay within
+    // `MAX_PACKING_WORK` points in all, and still find the discs a lattice holds.
+    let hull = [
+        Vec2::new(-10.0, -10.0),
+        Vec2::new(10.0, -10.0),
+        Vec2::new(10.0, 10.0),
+        Vec2::new(-10.0, 10.0),
+    ];
+    let edges: Vec<(Vec2, Vec2)> = (0..4).map(|i| (hull[i], hull[(i + 1) % 4])).collect();
+    let tested = std::cell::Cell::new(0usize);
+    let inside = |p: Vec2| p.x.abs() <= 9.93 && p.y.abs() <= 9.93;
+    let n = formica::metrics::pack_discs(&hull, 0.07, &edges, |p| {
+        tested.set(tested.get() + 1);
+        inside(p)
+    });
+    assert!(
+        tested.get() <= formica::metrics::MAX_PACKING_WORK,
+        "{} points tested",
+        tested.get()
+    );
+    // Centres range over 19.86 m each way: a square lattice of spacing 0.14 m along an edge
+    // holds 142 x 142; a hexagonal one more.
+    assert!(n >= 142 * 142, "{n}");
+}
+
+#[test]
 fn a_robot_outside_the_u_does_not_stop_against_its_back() {
     // Against the outside of the U's back wall (the seed's false stop), with a red neighbour
     // ahead and one behind so that 4 sensors fire: the object does not surround the robot.

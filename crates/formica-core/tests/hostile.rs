@@ -484,8 +484,11 @@ fn far_away_object_metrics_finish() {
 #[test]
 fn huge_object_metrics_finish() {
     // A U 900 m wide and a 0.5 m x 900 m bar: the metrics' cost does not grow with the area.
+    // A U 60 m wide, small enough to be packed disc by disc, took over two minutes before the
+    // packing's total work was bounded (`MAX_PACKING_WORK`): about 4 s now.
     for shape in [
         "{ polygon = [[-450, -450], [450, -450], [450, 450], [300, 450], [300, -300], [-300, -300], [-300, 450], [-450, 450]] }",
+        "{ polygon = [[-30, -30], [30, -30], [30, 30], [18, 30], [18, -18], [-18, -18], [-18, 30], [-30, 30]] }",
         "{ box = [0.5, 900.0] }",
     ] {
         let t = format!("[arena]\nsize = [1000.0, 1000.0]\n[[objects]]\nat = [0.0, 0.0]\nshape = {shape}\n[[robots]]\ncount = 5\ncontroller = \"filling\"\nplacement = {{ random = {{ min = [-10.0, -480.0], max = [10.0, -470.0] }} }}\n[stop]\non_filled = 0.5\n");
