@@ -255,6 +255,8 @@ impl Default for Params {
                 // `filling`'s 4.5 s (results format 26) was not measured here; the figures
                 // were measured at 1.5.
                 hold_s: 1.5,
+                // `filling`'s 3 (results format 29) was not measured here either; 2 was.
+                follow_gain: 2.0,
                 ..filling::Params::default()
             },
             push: occlusion::Params::default(),
@@ -992,6 +994,7 @@ mod tests {
         assert_eq!(p.fill.follow_reading, d.fill.follow_reading);
         assert_eq!(p.fill.creep_into_gaps, d.fill.creep_into_gaps);
         assert_eq!(p.fill.hold_s, 1.5);
+        assert_eq!(p.fill.follow_gain, 2.0);
         // Unknown keys in a nested table are still errors.
         let t: toml::Table = toml::from_str("fill = { creep = 0.03 }").unwrap();
         let e = parse_params_with_defaults::<Params>(Some(&t)).unwrap_err();
