@@ -181,7 +181,10 @@ pub fn disc_in_cavity(world: &World, obj: usize, hull: &[Vec2], p: Vec2, radius:
 /// Computed by lattice packing
 /// ([`pack_discs`]): hexagonal and square lattices of spacing `2 radius`, laid at 12 rotations
 /// and 16 offsets, and laid along every edge of the object and its hull with the first row
-/// touching that edge; the best count is kept. A lower bound of the best packing (the tests
+/// touching that edge (fewer rotations, offsets and edges for objects over about 8 m:
+/// [`MAX_PACKING_WORK`]), and by a greedy packing deepest in the hull first
+/// ([`pack_deepest_first`], which also finds pockets smaller than its grid); the best count is
+/// kept. A lower bound of the best packing (the tests
 /// check it on cavities counted by hand); a cavity narrower than a robot has capacity 0. Only
 /// discs a robot can reach from outside count: room behind a mouth narrower than a robot, or
 /// inside a closed ring of parts, holds none (see `Reach`: to within 7 mm for a Khepera IV).
@@ -397,10 +400,10 @@ pub fn pack_deepest_first(
         }
         count
     };
-    let plain = greedy(on_grid.clone());
     if found.is_empty() {
-        return plain;
+        return greedy(on_grid);
     }
+    let plain = greedy(on_grid.clone());
     on_grid.extend(found);
     plain.max(greedy(on_grid))
 }
@@ -456,15 +459,13 @@ pub fn pack_discs(
     let points = (per_axis * per_axis) as usize;
     // 2 lattices x (12 rotations x 16 offsets, and 16 slides either side of up to 64 edges);
     // fewer if the lattice is large.
+    // The fewest trials run whatever the work, so that every object gets a packing.
     let all_edges = edges.len().min(64);
-    let (rotations, offsets, edge_count, along) = [
-        (12, 4, all_edges, 16),
-        (6, 2, all_edges, 16),
-        (1, 1, edges.len().min(4), 2),
-    ]
-    .into_iter()
-    .find(|&(r, o, e, a)| points * 2 * (r * o * o + 2 * e * a) <= MAX_PACKING_WORK)
-    .unwrap_or((1, 1, edges.len().min(4), 2));
+    let fewest = (1, 1, edges.len().min(4), 2);
+    let (rotations, offsets, edge_count, along) = [(12, 4, all_edges, 16), (6, 2, all_edges, 16)]
+        .into_iter()
+        .find(|&(r, o, e, a)| points * 2 * (r * o * o + 2 * e * a) <= MAX_PACKING_WORK)
+        .unwrap_or(fewest);
     let count = |hex: bool, t: f32, o: Vec2| {
         let (skew, row) = if hex {
             (0.5 * d, d * 0.866_025_4)

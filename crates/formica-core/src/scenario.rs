@@ -1862,6 +1862,7 @@ mod tests {
         let names: std::collections::BTreeSet<&str> = Color::ALL.iter().map(|c| c.name()).collect();
         assert_eq!(names.len(), Color::ALL.len());
         for c in Color::ALL {
+            // A name that does not parse back is the failure this test exists to report.
             let parsed: Color = toml::Value::String(c.name().into()).try_into().unwrap();
             assert_eq!(parsed, c);
         }
