@@ -62,3 +62,22 @@ def test_the_random_studies_are_what_their_script_draws():
             text=True,
         )
         assert out.stdout == (ROOT / "experiments" / name).read_text()
+
+
+def test_the_stall_study_runs_the_draws_stars_as_drawn():
+    # experiments/fill-transport-stall.toml copies every 3-point star of the random draws with
+    # its placement and goal: each copy must be the draw's `fill-transport` case, key for key.
+    import tomllib
+
+    exp = ROOT / "experiments"
+    files = {"7": "random.toml", "8": "random-seed8.toml", "10": "random-seed10.toml", "11": "random-seed11.toml"}
+    study = tomllib.loads((exp / "fill-transport-stall.toml").read_text())
+    stars = [c for c in study["cases"] if c["label"].startswith("draw seed ")]
+    assert len(stars) == 8
+    for case in stars:
+        head, shape = case["label"].split(", ", 1)
+        draw = tomllib.loads((exp / files[head.removeprefix("draw seed ")]).read_text())
+        label = shape.replace(": 3-point star", ": 3-point star, fill-transport")
+        (original,) = [c for c in draw["cases"] if c["label"] == label]
+        strip = lambda c: {k: v for k, v in c.items() if k != "label"}  # noqa: E731
+        assert strip(case) == strip(original), case["label"]
