@@ -215,8 +215,10 @@ pub struct Params {
     /// with 30. On small objects in the open 60 is better: the random draws' eight 3-point
     /// stars, seeds 1-20, 146 of 160 against 141, in 14-42 % less time, and the five shipped
     /// objects as often (`experiments/fill-transport-stall.toml`); 30 fills less and loses more.
-    /// With relays at N = 30 (the obstacle slice, seeds 1-10) 60 delivers 354 of 420 against
-    /// 350, median 387 s against 509 (`experiments/fill-transport-stall-relays.toml`).
+    /// With relays (the obstacle slices, seeds 1-10) 60 delivers 378 of 420 against 365 with
+    /// 20 robots and 354 against 350 with 30, a fifth to a quarter sooner
+    /// (`experiments/fill-transport-stall-relays.toml`). The default stays 120 until every
+    /// study that runs `fill-transport` is swept again with 60.
     pub stall_s: f32,
     /// Lap progress (degrees around the object's centre) that counts as advancing. Default 30.
     pub stall_deg: f32,
