@@ -157,6 +157,32 @@ struct Failed<'a> {
     picture: Option<Result<String, String>>,
 }
 
+/// Removes from `folder` the pictures a report draws (`trial-N.png`) whose trial is not in
+/// `keep`; any other file is left alone, and a missing folder is nothing to do.
+fn prune_pictures(folder: &Path, keep: &[usize]) -> Result<(), CliError> {
+    let entries = match std::fs::read_dir(folder) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(anyhow::anyhow!("reading {}: {e}", folder.display()).into()),
+    };
+    for entry in entries {
+        let entry = entry.with_context(|| format!("reading {}", folder.display()))?;
+        let file = entry.file_name();
+        let Some(trial) = file
+            .to_str()
+            .and_then(|f| f.strip_prefix("trial-")?.strip_suffix(".png"))
+            .and_then(|n| n.parse::<usize>().ok())
+        else {
+            continue;
+        };
+        if !keep.contains(&trial) {
+            let path = entry.path();
+            std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
+        }
+    }
+    Ok(())
+}
+
 /// Which trials a [`trials_section`] lists.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub enum Listed {
@@ -201,14 +227,6 @@ pub fn trials_section(
     let mut md = format!("## {heading}\n\n");
     let name = replay::store_name(db);
     let program = crate::program();
-    if rows.is_empty() {
-        md.push_str("None: no trial here has a success rule.\n\n");
-        return Ok(md);
-    }
-    if failed.is_empty() {
-        md.push_str("Every trial succeeded.\n\n");
-        return Ok(md);
-    }
     let mut failed_in: HashMap<&str, Vec<&StoredTrial>> = HashMap::new();
     for r in &failed {
         failed_in.entry(r.params_json.as_str()).or_default().push(r);
@@ -219,6 +237,18 @@ pub fn trials_section(
     let mut wanted: Vec<&StoredTrial> = Vec::new();
     for s in sets {
         wanted.extend(failed_of(s).iter().take(gallery).copied());
+    }
+    // Pictures an earlier report left in the folder (of another store, or with other gallery
+    // settings) would sit beside the new ones unnamed by the summary.
+    let keep: Vec<usize> = wanted.iter().map(|r| r.trial).collect();
+    prune_pictures(&dir.join(folder), &keep)?;
+    if rows.is_empty() {
+        md.push_str("None: no trial here has a success rule.\n\n");
+        return Ok(md);
+    }
+    if failed.is_empty() {
+        md.push_str("Every trial succeeded.\n\n");
+        return Ok(md);
     }
     let pictures = if wanted.is_empty() {
         Vec::new()

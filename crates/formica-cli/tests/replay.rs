@@ -168,6 +168,11 @@ fn report_lists_failed_trials_with_replay_commands_and_a_gallery() {
     let dir = tmp("report");
     let db = smoke_store(&dir);
     let out_dir = dir.join("report");
+    // A folder that held an earlier report: its picture of a trial this store does not have
+    // goes, a file of the user's stays.
+    std::fs::create_dir_all(out_dir.join("failures")).unwrap();
+    std::fs::write(out_dir.join("failures/trial-9999.png"), b"old").unwrap();
+    std::fs::write(out_dir.join("failures/notes.txt"), b"mine").unwrap();
     ok(formica()
         .arg("report")
         .arg(&db)
@@ -178,10 +183,16 @@ fn report_lists_failed_trials_with_replay_commands_and_a_gallery() {
     let md = std::fs::read_to_string(out_dir.join("summary.md")).unwrap();
     assert!(md.contains("## Failed trials"), "{md}");
     assert!(md.contains("`formica serve --db smoke.db --trial "), "{md}");
+    assert!(!out_dir.join("failures/trial-9999.png").exists());
+    assert_eq!(
+        std::fs::read(out_dir.join("failures/notes.txt")).unwrap(),
+        b"mine"
+    );
     // Pictures of at most 3 failed trials per parameter set, each linked from the summary.
     let pictures: Vec<String> = std::fs::read_dir(out_dir.join("failures"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|f| f.ends_with(".png"))
         .collect();
     assert!(!pictures.is_empty());
     assert!(pictures.len() <= 4 * 3);
