@@ -22,8 +22,10 @@ pub const AREA_STEP_M: f32 = 0.005;
 /// Most grid samples one area measurement takes (the step grows for large objects).
 pub const MAX_AREA_SAMPLES: f32 = 250_000.0;
 
-/// Most lattice points one packing trial of [`cavity_capacity`] examines (the number of trials
-/// shrinks for large objects).
+/// Most points of one packing lattice over an object's hull: [`cavity_capacity`] estimates a
+/// larger object's capacity from its area instead. Also the most cells or candidates of the
+/// reach flood and of [`pack_deepest_first`]'s grid, which coarsen for large objects. (The
+/// number of lattice trials is bounded by [`MAX_PACKING_WORK`] since results format 28.)
 pub const MAX_PACKING_POINTS: usize = 400_000;
 
 /// Most lattice points the trials of [`pack_discs`] examine together (each a disc test against
