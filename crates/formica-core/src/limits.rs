@@ -168,8 +168,8 @@ const PAIRS: [&str; 6] = ["at", "size", "center", "min", "max", "box"];
 const PAIR_ITEMS: [&str; 1] = ["polygon"];
 const TRIPLE_ITEMS: [&str; 2] = ["poses", "path"];
 
-/// The first list of numbers of the wrong length under a key of [`PAIRS`], [`PAIR_ITEMS`] or
-/// [`TRIPLE_ITEMS`] (controllers' `params` tables aside), with what it should be. A list of
+/// The first list of numbers of the wrong length under a key of `PAIRS`, `PAIR_ITEMS` or
+/// `TRIPLE_ITEMS` (controllers' `params` tables aside), with what it should be. A list of
 /// three where two are meant (`at = [2.5, 0.0, 0.5]`, an ARGoS habit: the third is a height
 /// here given apart) would otherwise lose its extra number without a word.
 pub fn wrong_length(text: &str) -> Option<(Range<usize>, String)> {

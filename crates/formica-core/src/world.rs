@@ -198,7 +198,7 @@ fn solver_factor(groups: &[Group], objects: &[Object]) -> u32 {
     ((hi / lo).sqrt().ceil() as u32).clamp(1, MAX_SOLVER_FACTOR)
 }
 
-/// The most [`solver_factor`] gives.
+/// The most `solver_factor` gives.
 pub const MAX_SOLVER_FACTOR: u32 = 4;
 
 /// One robot.
