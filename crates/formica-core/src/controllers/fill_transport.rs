@@ -205,20 +205,17 @@ pub struct Params {
     pub occluded_within_deg: f32,
     /// Seconds after which a filler whose lap has not advanced by `stall_deg` past its record
     /// (its farthest so far, either way round; going back and forth is no progress) becomes a
-    /// pusher. Default 120, with or without relays (results format 18: 240 with relays; format
-    /// 17 and earlier: 240 everywhere). A crowd of fillers jammed round a small object shoves it
-    /// while nobody pushes: 30 robots round a 0.4 m square on `qm-open` without relays, seeds
-    /// 1-20, 12 successes at 240 s (8 timeouts, the traced ones with the square pressed into the
-    /// corner behind it), 17 at 120 and at 90, 14 at 150; on the U, 90 left two runs of 20 with
-    /// no robot attached, 120 none. With relays, the obstacle study's seven shapes on its six
-    /// maps, seeds 1-20: 729 of 840 at 120 against 702 at 240 with 20 robots, 707 against 633
-    /// with 30. On small objects in the open 60 is better: the random draws' eight 3-point
-    /// stars, seeds 1-20, 146 of 160 against 141, in 14-42 % less time, and the five shipped
-    /// objects as often (`experiments/fill-transport-stall.toml`); 30 fills less and loses more.
-    /// With relays (the obstacle slices, seeds 1-10) 60 delivers 378 of 420 against 365 with
-    /// 20 robots and 354 against 350 with 30, a fifth to a quarter sooner
-    /// (`experiments/fill-transport-stall-relays.toml`). The default stays 120 until every
-    /// study that runs `fill-transport` is swept again with 60.
+    /// pusher. Default 60, with or without relays (results format 29 and earlier: 120; format
+    /// 18: 240 with relays; format 17 and earlier: 240 everywhere). A crowd of fillers jammed
+    /// round a small object inches round it, so laps neither end nor stall, and shoves it while
+    /// nobody pushes. On the random draws' eight 3-point stars, seeds 1-20, 60 delivers 146 of
+    /// 160 against 141 at 120, in 14-42 % less time, and the five shipped objects as often
+    /// (`experiments/fill-transport-stall.toml`); 30 fills less and loses more to walls. With
+    /// relays (the obstacle slices, seeds 1-10) 60 delivers 378 of 420 against 365 with 20
+    /// robots and 354 against 350 with 30, a fifth to a quarter sooner
+    /// (`experiments/fill-transport-stall-relays.toml`). Earlier, 120 against 240: 30 robots
+    /// round a 0.4 m square on `qm-open` without relays, seeds 1-20, 17 successes against 12;
+    /// with relays, seeds 1-20, 729 of 840 against 702 with 20 robots, 707 against 633 with 30.
     pub stall_s: f32,
     /// Lap progress (degrees around the object's centre) that counts as advancing. Default 30.
     pub stall_deg: f32,
@@ -269,7 +266,7 @@ impl Default for Params {
             laps: 1.0,
             occluded_within_deg: 90.0,
             reach_margin: 0.12,
-            stall_s: 120.0,
+            stall_s: 60.0,
             stall_deg: 30.0,
             pusher: Pusher::Occlusion,
             push_speed: 0.1,
@@ -1191,10 +1188,10 @@ mod tests {
     fn a_filler_that_goes_back_and_forth_stalls_and_pushes() {
         // A filler that follows an edge round 120 degrees of the object's centre and back,
         // again and again (an obstacle taken for the object, then a wall back), never completes
-        // a lap. Its lap progress is the record, so it stalls after `stall_s` (120 s, with or
+        // a lap. Its lap progress is the record, so it stalls after `stall_s` (60 s, with or
         // without relays) and pushes; counted as any swing of 30 degrees it would fill for ever.
         let layout = SensorLayout::of(&RobotModel::khepera4(), &SensorConfig::default());
-        let stall = 120.0;
+        let stall = 60.0;
         for relays in [false, true] {
             let p = Params {
                 relays,
