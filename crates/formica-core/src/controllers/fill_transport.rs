@@ -205,18 +205,20 @@ pub struct Params {
     pub occluded_within_deg: f32,
     /// Seconds after which a filler whose lap has not advanced by `stall_deg` past its record
     /// (its farthest so far, either way round; going back and forth is no progress) becomes a
-    /// pusher. Default 60, with or without relays (results format 29 and earlier: 120; format
-    /// 18: 240 with relays; format 17 and earlier: 240 everywhere). A crowd of fillers jammed
-    /// round a small object inches round it, so laps neither end nor stall, and shoves it while
-    /// nobody pushes. On the random draws' eight 3-point stars, seeds 1-20, 60 delivers 146 of
-    /// 160 against 141 at 120, in 14-42 % less time, and the five shipped objects as often
-    /// (`experiments/fill-transport-stall.toml`); 30 fills less and loses more to walls. With
-    /// relays (the obstacle slices, seeds 1-10) 60 delivers 378 of 420 against 365 with 20
-    /// robots and 354 against 350 with 30, a fifth to a quarter sooner
-    /// (`experiments/fill-transport-stall-relays.toml`). Earlier, 120 against 240: 30 robots
-    /// round a 0.4 m square on `qm-open` without relays, seeds 1-20, 17 successes against 12;
-    /// with relays, seeds 1-20, 729 of 840 against 702 with 20 robots, 707 against 633 with 30.
-    pub stall_s: f32,
+    /// pusher. Default 60 with relays, 120 without (results format 31; format 30: 60 either
+    /// way; formats 19 to 29: 120 either way; format 18: 240 with relays; format 17 and
+    /// earlier: 240 everywhere). With relays fillers also follow walls and obstacles they take
+    /// for the object, and 60 delivers more at every swarm size: the obstacle design's six maps
+    /// and seven shapes, seeds 1-10, 233 / 326 / 362 / 378 / 354 of 420 at N = 5 / 10 / 15 /
+    /// 20 / 30 against 227 / 309 / 343 / 365 / 350 at 120
+    /// (`experiments/fill-transport-stall-small-swarms.toml`,
+    /// `experiments/fill-transport-stall-relays.toml`). Without relays 60 ends a crowd's
+    /// circling of a small object sooner (the random draws' 3-point stars, 146 of 160 against
+    /// 141, in 14-42 % less time: `experiments/fill-transport-stall.toml`) but lost more than it
+    /// gained over every study that runs `fill-transport` in the open (format 30: 5,720
+    /// against 5,729 of 5,890; concave objects 0.25 m from a wall 77 against 90 of 150), so 120
+    /// stays the default there.
+    pub stall_s: Option<f32>,
     /// Lap progress (degrees around the object's centre) that counts as advancing. Default 30.
     pub stall_deg: f32,
     /// Margin (m) added to the farthest distance from the object's centre at which the robot
@@ -266,7 +268,7 @@ impl Default for Params {
             laps: 1.0,
             occluded_within_deg: 90.0,
             reach_margin: 0.12,
-            stall_s: 60.0,
+            stall_s: None,
             stall_deg: 30.0,
             pusher: Pusher::Occlusion,
             push_speed: 0.1,
@@ -303,6 +305,16 @@ impl Params {
         push
     }
 
+    /// Seconds a filler's lap may stall before it pushes: `stall_s`, or its default (60 with
+    /// relays, 120 without).
+    pub fn stall_s(&self) -> f32 {
+        self.stall_s.unwrap_or(if self.relays || self.push.relays {
+            60.0
+        } else {
+            120.0
+        })
+    }
+
     /// How pushers measure the pseudo object: `reach`, or its default.
     pub fn reach(&self) -> Reach {
         self.reach.unwrap_or(if self.relays || self.push.relays {
@@ -335,10 +347,11 @@ pub fn factory(
             p.heading_gain
         ));
     }
-    if !(positive(p.stall_s) && positive(p.stall_deg)) {
+    if !(positive(p.stall_s()) && positive(p.stall_deg)) {
         return Err(format!(
             "`stall_s` and `stall_deg` must be positive numbers, got {} and {}",
-            p.stall_s, p.stall_deg
+            p.stall_s(),
+            p.stall_deg
         ));
     }
     if !(0.0..=1.0).contains(&p.reach_margin) {
@@ -582,7 +595,7 @@ impl FillTransport {
             pushing: false,
             occluded_within: p.occluded_within_deg.to_radians(),
             reach_margin: p.reach_margin,
-            stall_s: p.stall_s,
+            stall_s: p.stall_s(),
             stall_rad: p.stall_deg.to_radians(),
             lap_anchor: None,
             lap_start: None,
@@ -1188,16 +1201,16 @@ mod tests {
     fn a_filler_that_goes_back_and_forth_stalls_and_pushes() {
         // A filler that follows an edge round 120 degrees of the object's centre and back,
         // again and again (an obstacle taken for the object, then a wall back), never completes
-        // a lap. Its lap progress is the record, so it stalls after `stall_s` (60 s, with or
-        // without relays) and pushes; counted as any swing of 30 degrees it would fill for ever.
+        // a lap. Its lap progress is the record, so it stalls after `stall_s` (120 s without
+        // relays, 60 s with) and pushes; counted as any swing of 30 degrees it would fill for
+        // ever.
         let layout = SensorLayout::of(&RobotModel::khepera4(), &SensorConfig::default());
-        let stall = 60.0;
-        for relays in [false, true] {
+        for (relays, stall) in [(false, 120.0), (true, 60.0)] {
             let p = Params {
                 relays,
                 ..Params::default()
             };
-            assert_eq!(p.stall_s, stall);
+            assert_eq!(p.stall_s(), stall);
             let t = stalls_after(FillTransport::new(p, &layout), &layout);
             assert!((stall..stall + 60.0).contains(&t), "pushes from {t} s");
         }
