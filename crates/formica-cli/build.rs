@@ -1,6 +1,8 @@
 //! Records which commit and target the binary is built from, for `formica --version` and the
-//! provenance of every result: `FORMICA_GIT_COMMIT` (the commit HEAD points at, `unknown`
-//! outside a git checkout of Formica; a packager may set it) and `FORMICA_TARGET`.
+//! provenance of every result: `FORMICA_GIT_COMMIT` (the commit HEAD points at, with `-dirty`
+//! appended when the code (`crates/`, `python/src/`, `Cargo.toml`, `Cargo.lock`) differs from
+//! it; `unknown` outside a git checkout of Formica; a packager may set it) and
+//! `FORMICA_TARGET`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -59,7 +61,20 @@ fn main() {
                     watch(common.join(branch));
                 }
             }
-            Some(commit)
+            // Code that differs from the commit: results made by this build are not that
+            // commit's. Build again when any of it changes.
+            let code = ["crates", "python/src", "Cargo.toml", "Cargo.lock"];
+            for path in code {
+                watch(top.join(path));
+            }
+            let mut status = vec!["status", "--porcelain", "--untracked-files=no", "--"];
+            status.extend(code);
+            let dirty = git(&top, &status).is_some();
+            Some(if dirty {
+                format!("{commit}-dirty")
+            } else {
+                commit
+            })
         })
         .unwrap_or_else(|| "unknown".into());
     println!("cargo:rustc-env=FORMICA_GIT_COMMIT={commit}");

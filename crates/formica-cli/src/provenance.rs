@@ -15,7 +15,8 @@ use sha2::{Digest, Sha256};
 
 /// This build's version.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
-/// The commit this build was made from (`unknown` outside a git checkout).
+/// The commit this build was made from (`-dirty` appended when its code differed from the
+/// commit; `unknown` outside a git checkout).
 pub const GIT_COMMIT: &str = env!("FORMICA_GIT_COMMIT");
 /// The target triple this build runs on.
 pub const PLATFORM: &str = env!("FORMICA_TARGET");
