@@ -299,25 +299,28 @@ impl Params {
     /// pushers of an object stuck beside an obstacle wandered away from it.
     pub fn pusher(&self) -> occlusion::Params {
         let mut push = self.push.clone();
-        push.relays |= self.relays;
+        push.relays = self.with_relays();
         push.relay.patience_s.get_or_insert(RELAY_PATIENCE_S);
         push.relay.gate_memory_s.get_or_insert(f32::MAX);
         push
     }
 
+    /// Whether pushers use sub-goal relays (`relays` or `push.relays`), which some defaults
+    /// follow.
+    fn with_relays(&self) -> bool {
+        self.relays || self.push.relays
+    }
+
     /// Seconds a filler's lap may stall before it pushes: `stall_s`, or its default (60 with
     /// relays, 120 without).
     pub fn stall_s(&self) -> f32 {
-        self.stall_s.unwrap_or(if self.relays || self.push.relays {
-            60.0
-        } else {
-            120.0
-        })
+        self.stall_s
+            .unwrap_or(if self.with_relays() { 60.0 } else { 120.0 })
     }
 
     /// How pushers measure the pseudo object: `reach`, or its default.
     pub fn reach(&self) -> Reach {
-        self.reach.unwrap_or(if self.relays || self.push.relays {
+        self.reach.unwrap_or(if self.with_relays() {
             Reach::Outline
         } else {
             Reach::Farthest
