@@ -247,10 +247,10 @@ pub struct Params {
     /// always does). Default 0.05.
     pub spread_still_m: f32,
     /// Squeezed robots push: a circling robot with the object on one side (within
-    /// `contact_gap`) and something else close on the other (proximity above
-    /// `avoid_threshold`, within about 57 degrees of straight away from the object: a wall, an
-    /// obstacle, a neighbour) for this many seconds pushes the object away from it, along the
-    /// surface normal, goal in sight or not, until it is squeezed no longer. Keeps objects off
+    /// `contact_gap`) and something else close on the other (a wall, an obstacle, a neighbour
+    /// about 9 cm or less from its body, within 57 degrees of straight away from the object)
+    /// for this many seconds pushes the object away from it, along the surface normal, goal in
+    /// sight or not, until its far side senses nothing. Keeps objects off
     /// walls they travel along. 0 never (default). See `balance_turn` for what the two do
     /// together.
     pub squeeze_s: f32,
@@ -310,6 +310,12 @@ impl Default for Params {
         }
     }
 }
+
+/// Summed proximity reading on the far side from the object above which a circling robot
+/// counts as squeezed (`Params::squeeze_s`): a wall about 9 cm from a Khepera IV's body (a
+/// 0.25 m gap between the object and the wall for a robot circling 3 cm from the object). It
+/// pushes on until the far side reads nothing ([`NOISE_FLOOR`]).
+const SQUEEZE_READING: f32 = 0.1;
 
 /// Window over which a pusher measures how the face it pushes turns (s), for
 /// `Params::balance_turn`.
@@ -864,11 +870,12 @@ impl Occlusion {
         Some((wrap_angle(ops::angle_of(to) - r.pose.theta), to.length()))
     }
 
-    /// Whether the robot is squeezed between the object (surface `s`) and something else
-    /// (`other`, proximity hits that are not the object) on its far side.
-    fn squeezed(&self, s: Surface, other: Vec2) -> bool {
+    /// Whether the robot is squeezed between the object (surface `s`, within `contact_gap`)
+    /// and something else on its far side: `other` (proximity hits that are not the object,
+    /// summed) stronger than `reading`, within 1 rad of straight away from the surface.
+    fn squeezed(&self, s: Surface, other: Vec2, reading: f32) -> bool {
         s.gap <= self.p.contact_gap
-            && other.length() > self.p.avoid_threshold
+            && other.length() > reading
             && wrap_angle(ops::angle_of(other) - s.bearing - PI).abs() < 1.0
     }
 
@@ -1480,7 +1487,7 @@ impl Controller for Occlusion {
                         continue;
                     }
                     if self.p.squeeze_s > 0.0 {
-                        if self.squeezed(s, other) {
+                        if self.squeezed(s, other, SQUEEZE_READING) {
                             let since = *self.squeezed_since.get_or_insert(now);
                             if now - since >= self.p.squeeze_s {
                                 self.squeeze_push = true;
@@ -1576,7 +1583,7 @@ impl Controller for Occlusion {
                         self.set_state(State::Search, r);
                         continue;
                     };
-                    if self.squeeze_push && !self.squeezed(s, other) {
+                    if self.squeeze_push && !self.squeezed(s, other, NOISE_FLOOR) {
                         self.squeeze_push = false;
                         self.squeezed_since = None;
                     }
