@@ -165,6 +165,8 @@ fn unknown_or_bad_parameters_are_rejected() {
         "{ speed = 0.1 }",
         "{ perception = \"sonar\" }",
         "{ push_speed = -0.1 }",
+        "{ squeeze_s = -1.0 }",
+        "{ balance_turn = -0.03 }",
     ] {
         let text = format!(
             "[arena]\nsize = [6.0, 4.0]\n[[robots]]\ncount = 1\ncontroller = \"occlusion\"\nparams = {params}\nplacement = {{ poses = [[0.0, 0.0, 0.0]] }}\n"
@@ -256,4 +258,48 @@ fn a_robot_squeezed_between_the_object_and_a_wall_pushes_the_object_off_the_wall
     assert!(pushed, "never pushed");
     // It pushes the box south until the wall is out of its sensors' range.
     assert!(lowest < 1.44, "the box went no further south than {lowest}");
+}
+
+/// How far (rad) a light 0.2 x 1.0 m bar in the open turns at most in 15 s, and how far (m)
+/// its centre goes, when two `occlusion` robots with `params` push it at one end (the goal
+/// hidden behind it; Chen's rule: they push where they are), exact sensors.
+fn bar_turn(params: &str) -> (f32, f32) {
+    let sc = common::scenario(&format!(
+        "[[lights]]\nat = [2.5, 0.0]\nheight = 0.5\nintensity = 10.0\ngoal = true\n\
+         [[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [0.2, 1.0] }}\nmass = 2.0\nheight = 0.3\nfloor_mu = 0.05\n\
+         {}sensors = {{ noise = \"none\" }}\n",
+        common::robot_group(
+            "occlusion",
+            &format!("occluder_angle_deg = 180.0, spread_s = 0.0, push_goal_bias_deg = 0.0{params}"),
+            &[[-0.19, 0.4, 0.0], [-0.19, 0.24, 0.0]],
+        )
+    ));
+    let mut run = start(&sc, 1);
+    let mut most = 0.0f32;
+    for _ in 0..150 {
+        run.step();
+        most = most.max(run.world.object_pose(0).theta.abs());
+    }
+    (most, run.world.object_center(0).x)
+}
+
+#[test]
+fn torque_balance_slows_the_turn_of_an_object_pushed_off_centre() {
+    // Nobody pushes at the other end, so the bar turns either way (1.41 rad without the
+    // balance, 0.78 with it, at results format 31); holding while it turns their way, the
+    // pushers still carry it (0.32 m and 0.28 m).
+    let (free, went) = bar_turn("");
+    let (balanced, went_balanced) = bar_turn(", balance_turn = 0.03");
+    assert!(
+        free > 1.0,
+        "pushed at one end, the bar turned only {free} rad"
+    );
+    assert!(
+        balanced < 0.7 * free,
+        "with the balance the bar turned {balanced} rad (without {free})"
+    );
+    assert!(
+        went_balanced > 0.8 * went,
+        "with the balance the bar went {went_balanced} m (without {went})"
+    );
 }
