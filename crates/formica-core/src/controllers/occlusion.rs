@@ -81,6 +81,7 @@ use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::sync::Arc;
 
@@ -250,9 +251,8 @@ pub struct Params {
     /// `contact_gap`) and something else close on the other (a wall, an obstacle, a neighbour
     /// about 9 cm or less from its body, within 57 degrees of straight away from the object)
     /// for this many seconds pushes the object away from it, along the surface normal, goal in
-    /// sight or not, until its far side senses nothing. Keeps objects off
-    /// walls they travel along. 0 never (default). See `balance_turn` for what the two do
-    /// together.
+    /// sight or not, until its far side senses nothing. Keeps objects off walls they travel
+    /// along. 0 never (default). See `balance_turn` for what the two do together.
     pub squeeze_s: f32,
     /// Torque balance (beacon perception): a pusher measures how the face it pushes turns
     /// (its own heading plus the surface's bearing, over the last 2 s) and, when the object
@@ -499,9 +499,9 @@ pub struct Occlusion {
     squeezed_since: Option<f32>,
     /// Pushing because squeezed (`Params::squeeze_s`), not because the goal is hidden.
     squeeze_push: bool,
-    /// World-frame direction of the pushed face's inward normal last tick (rad), and the
-    /// face's smoothed turn rate (rad/s).
-    face: std::collections::VecDeque<(f32, f32)>,
+    /// The pushed face's inward normal (world frame, rad) with the time of each sample (s),
+    /// over the last [`BALANCE_WINDOW_S`], and its turn rate over that window (rad/s).
+    face: VecDeque<(f32, f32)>,
     spin: f32,
     /// World-frame direction of the goal when it was last seen (rad).
     goal_dir: Option<f32>,
@@ -660,7 +660,7 @@ impl Occlusion {
             blocked_since: None,
             squeezed_since: None,
             squeeze_push: false,
-            face: std::collections::VecDeque::new(),
+            face: VecDeque::new(),
             spin: 0.0,
             goal_dir: None,
             goal_fix: GoalFix::default(),
@@ -869,6 +869,41 @@ impl Occlusion {
         let c = r.beacon?;
         let to = c - r.pose.position();
         Some((wrap_angle(ops::angle_of(to) - r.pose.theta), to.length()))
+    }
+
+    /// Torque balance (`Params::balance_turn`) for a pusher on surface `s` pushing toward
+    /// `push` (robot frame, rad): records how the pushed face turns, and says whether the object
+    /// turns faster than `balance_turn` the way this push turns it (then the pusher holds).
+    fn balance_holds(&mut self, r: &Readings, s: Surface, push: f32) -> bool {
+        if self.p.balance_turn <= 0.0 || s.gap > self.p.contact_gap {
+            return false;
+        }
+        let now = r.time_s;
+        let phi = wrap_angle(r.pose.theta + s.bearing);
+        self.face.push_back((now, phi));
+        while self
+            .face
+            .front()
+            .is_some_and(|(t, _)| now - t > BALANCE_WINDOW_S)
+        {
+            self.face.pop_front();
+        }
+        if let Some(&(t0, p0)) = self.face.front() {
+            if now - t0 > 0.5 * BALANCE_WINDOW_S {
+                self.spin = wrap_angle(phi - p0) / (now - t0);
+            }
+        }
+        let Some((cb, d)) = self.centre_bearing(r) else {
+            return false;
+        };
+        if now - self.since_s <= 1.0 || self.spin.abs() <= self.p.balance_turn {
+            return false;
+        }
+        // Robot frame: the push's moment about the object's centre.
+        let arm = ops::unit(s.bearing) * (self.layout.radius + s.gap) - ops::unit(cb) * d;
+        let dir = ops::unit(push);
+        let torque = arm.x * dir.y - arm.y * dir.x;
+        torque * self.spin > 0.0
     }
 
     /// Whether the robot is squeezed between the object (surface `s`, within `contact_gap`)
@@ -1630,34 +1665,8 @@ impl Controller for Occlusion {
                     } else {
                         0.0
                     };
-                    if self.p.balance_turn > 0.0 && s.gap <= self.p.contact_gap {
-                        let phi = wrap_angle(r.pose.theta + s.bearing);
-                        self.face.push_back((now, phi));
-                        while self
-                            .face
-                            .front()
-                            .is_some_and(|(t, _)| now - t > BALANCE_WINDOW_S)
-                        {
-                            self.face.pop_front();
-                        }
-                        if let Some(&(t0, p0)) = self.face.front() {
-                            if now - t0 > 0.5 * BALANCE_WINDOW_S {
-                                self.spin = wrap_angle(phi - p0) / (now - t0);
-                            }
-                        }
-                        if let (Some((cb, d)), true) =
-                            (self.centre_bearing(r), now - self.since_s > 1.0)
-                        {
-                            // Robot frame: contact point and push direction about the centre.
-                            let centre = ops::unit(cb) * d;
-                            let contact = ops::unit(s.bearing) * (self.layout.radius + s.gap);
-                            let arm = contact - centre;
-                            let dir = ops::unit(err);
-                            let torque = arm.x * dir.y - arm.y * dir.x;
-                            if torque * self.spin > 0.0 && self.spin.abs() > self.p.balance_turn {
-                                fwd = 0.0;
-                            }
-                        }
+                    if self.balance_holds(r, s, err) {
+                        fwd = 0.0;
                     }
                     break self.twist(fwd, self.layout.turn_gain(self.p.turn_gain) * err);
                 }
