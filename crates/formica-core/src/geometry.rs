@@ -1124,8 +1124,16 @@ mod tests {
                     }
                 }
             }
+            // The grid misjudges at most the cells an edge crosses: along an edge aligned with
+            // the grid the error does not average out, up to half a step times its length
+            // (a thin unturned box 0.72 x 0.15 m against a 0.1 m one: 0.0028 m^2 of 0.114).
+            let half_perimeters: f64 = b.iter().map(|&((w, h), _, _)| f64::from(w + h)).sum();
+            let grid_error = f64::from(step) * half_perimeters;
             if let Some(m) = overlap_moments(&parts) {
-                prop_assert!((m.area - area).abs() < 0.01 * area + 1e-3, "{m:?} against {area}");
+                prop_assert!(
+                    (m.area - area).abs() < 0.01 * area + grid_error,
+                    "{m:?} against {area}"
+                );
                 prop_assert!((m.center[0] - mx / area).abs() < 0.01, "{m:?}");
                 prop_assert!((m.center[1] - my / area).abs() < 0.01, "{m:?}");
             } else {
@@ -1133,7 +1141,10 @@ mod tests {
                     .iter()
                     .map(|p| { let Primitive::Box([w, h]) = p.shape else { unreachable!() }; f64::from(w * h) })
                     .sum();
-                prop_assert!((sum - area).abs() < 0.01 * sum + 1e-3, "no overlap found, but the union has {area} of {sum}");
+                prop_assert!(
+                    (sum - area).abs() < 0.01 * sum + grid_error,
+                    "no overlap found, but the union has {area} of {sum}"
+                );
             }
         }
     }
