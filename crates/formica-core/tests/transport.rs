@@ -225,20 +225,20 @@ fn a_proportional_turn_never_overshoots_in_one_tick() {
     assert_eq!(layout(0.5).turn_gain(1.5), 1.5);
 }
 
-/// One `occlusion` robot with `params` at `pose` beside a light 1.5 x 0.5 m box (2 kg, floor
-/// friction 0.98 N: one robot moves it) whose north face is 0.25 m from the north wall, goal
-/// light to the east at the robot's height, exact sensors. Returns the box's lowest `y` and
-/// whether the robot ever pushed, over `ticks`.
-fn beside_wall(params: &str, pose: [f32; 3], ticks: usize) -> (f32, bool) {
+/// One `occlusion` robot with `params` in the 0.25 m between a light 1.5 x 0.5 m box (2 kg,
+/// floor friction 0.98 N: one robot moves it) and the north wall, heading west with the box on
+/// its left; goal light to the east at the robot's height, exact sensors. Returns the box's
+/// lowest `y` over 4 s, and whether the robot ever pushed.
+fn beside_wall(params: &str) -> (f32, bool) {
     let sc = common::scenario(&format!(
         "wall_thickness = 0.1\n[[lights]]\nat = [2.5, 1.8]\nheight = 0.5\nintensity = 10.0\ngoal = true\n\
          [[objects]]\nat = [0.0, 1.45]\nshape = {{ box = [1.5, 0.5] }}\nmass = 2.0\nheight = 0.3\nfloor_mu = 0.05\n\
          {}sensors = {{ noise = \"none\" }}\n[stop]\non_wall = false\n",
-        common::robot_group("occlusion", params, &[pose])
+        common::robot_group("occlusion", params, &[[0.3, 1.8, 180.0]])
     ));
     let mut run = start(&sc, 1);
     let (mut lowest, mut pushed) = (f32::INFINITY, false);
-    for _ in 0..ticks {
+    for _ in 0..40 {
         run.step();
         lowest = lowest.min(run.world.object_center(0).y);
         pushed |= run.world.robots[0].state == "push";
@@ -248,13 +248,11 @@ fn beside_wall(params: &str, pose: [f32; 3], ticks: usize) -> (f32, bool) {
 
 #[test]
 fn a_robot_squeezed_between_the_object_and_a_wall_pushes_the_object_off_the_wall() {
-    // In the 0.25 m between the box and the wall, heading west with the box on its left: the
-    // goal is in sight, so by Chen's rule it circles on.
-    let pose = [0.3, 1.8, 180.0];
-    let (lowest, pushed) = beside_wall("", pose, 40);
+    // The goal is in sight, so by Chen's rule it circles on.
+    let (lowest, pushed) = beside_wall("");
     assert!(!pushed, "pushed with the goal in sight");
     assert!(lowest > 1.445, "the box moved south to {lowest}");
-    let (lowest, pushed) = beside_wall("squeeze_s = 1.0", pose, 40);
+    let (lowest, pushed) = beside_wall("squeeze_s = 1.0");
     assert!(pushed, "never pushed");
     // It pushes the box south until the wall is out of its sensors' range.
     assert!(lowest < 1.44, "the box went no further south than {lowest}");

@@ -901,9 +901,7 @@ impl Occlusion {
         }
         // Robot frame: the push's moment about the object's centre.
         let arm = ops::unit(s.bearing) * (self.layout.radius + s.gap) - ops::unit(cb) * d;
-        let dir = ops::unit(push);
-        let torque = arm.x * dir.y - arm.y * dir.x;
-        torque * self.spin > 0.0
+        arm.perp_dot(ops::unit(push)) * self.spin > 0.0
     }
 
     /// Whether the robot is squeezed between the object (surface `s`, within `contact_gap`)
