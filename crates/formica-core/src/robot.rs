@@ -77,6 +77,24 @@ impl ProximityCurve {
         };
         v.clamp(0.0, 1.0)
     }
+
+    /// The distance beyond the body (m) that a reading `v` stands for, with the sensor's
+    /// `range`: the curve's inverse, clamped to 0 to `range`. A saturated reading (1 or more)
+    /// reads 0, nothing (0 or less) the range.
+    pub fn distance(&self, v: f32, range: f32) -> f32 {
+        if v <= 0.0 {
+            return range;
+        }
+        if v >= 1.0 {
+            return 0.0;
+        }
+        let d = match *self {
+            ProximityCurve::Exponential { a, b, c, .. } => -ops::ln((v + c) / a) / b,
+            ProximityCurve::Inverse { k, e, .. } => k / v - e,
+            ProximityCurve::Linear => (1.0 - v) * range,
+        };
+        d.clamp(0.0, range)
+    }
 }
 
 /// A robot model: body, drive limits and sensor layout. A scenario names one registered in its
@@ -302,6 +320,35 @@ impl RobotModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn distance_inverts_every_models_curve() {
+        for m in [
+            RobotModel::khepera4(),
+            RobotModel::footbot(),
+            RobotModel::epuck(),
+        ] {
+            let (c, range) = (m.proximity_curve, m.proximity_range);
+            // Where the reading is neither saturated nor nothing, the distance it stands for is
+            // the one that gave it, to within a tenth of a millimetre.
+            for i in 1..100 {
+                let d = range * i as f32 / 100.0;
+                let v = c.reading(d, range);
+                if v > 0.0 && v < 1.0 {
+                    let back = c.distance(v, range);
+                    assert!(
+                        (back - d).abs() < 1e-4,
+                        "{:?}: {d} -> {v} -> {back}",
+                        m.kind
+                    );
+                }
+            }
+            assert_eq!(c.distance(1.0, range), 0.0);
+            assert_eq!(c.distance(0.0, range), range);
+            assert_eq!(c.distance(-0.1, range), range);
+            assert_eq!(c.distance(1.3, range), 0.0);
+        }
+    }
 
     #[test]
     fn khepera_curve_matches_reference_points() {

@@ -26,7 +26,7 @@ use crate::geometry::{wrap_angle, Pose, Vec2};
 use crate::noise;
 use crate::ops;
 use crate::physics::{Nearby, Physics, Tag};
-use crate::robot::RobotModel;
+use crate::robot::{ProximityCurve, RobotModel};
 use crate::scenario::{CameraKind, Color, SensorConfig};
 use rand::Rng;
 use std::f32::consts::{PI, TAU};
@@ -94,6 +94,9 @@ pub struct SensorLayout {
     pub wheel_distance: f32,
     /// Proximity range beyond the body (m).
     pub proximity_range: f32,
+    /// How the model's proximity sensors turn a distance into a reading (its calibration:
+    /// [`ProximityCurve::distance`] inverts it).
+    pub proximity_curve: ProximityCurve,
     /// The largest radius (m) of the objects the beacon tracks (the farthest point of an
     /// outline from its centre of mass), as the positioning system that gives their centres
     /// knows them; `None` with no such object, or outside a world. Controllers may size
@@ -120,6 +123,7 @@ impl SensorLayout {
             radius: model.radius,
             wheel_distance: model.wheel_distance,
             proximity_range: model.proximity_range,
+            proximity_curve: model.proximity_curve,
             beacon_radius: None,
             tick_s: 0.1,
         }

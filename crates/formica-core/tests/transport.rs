@@ -301,3 +301,56 @@ fn torque_balance_slows_the_turn_of_an_object_pushed_off_centre() {
         "with the balance the bar went {went_balanced} m (without {went})"
     );
 }
+
+/// The gaps (m) between a lone `occlusion` robot of `model` and the immovable 0.5 m box it goes
+/// round, at every tick it circles over 60 s, exact sensors, no goal light (nothing is hidden,
+/// so it never pushes).
+fn circling_gaps(model: &str) -> Vec<f32> {
+    let sc = common::scenario(&format!(
+        "[[objects]]\nat = [0.0, 0.0]\nshape = {{ box = [0.5, 0.5] }}\nmass = 50.0\nheight = 0.5\nmovable = false\n\
+         {}model = \"{model}\"\nsensors = {{ noise = \"none\" }}\n",
+        common::robot_group("occlusion", "", &[[-0.6, 0.0, 0.0]])
+    ));
+    let mut run = start(&sc, 1);
+    let radius = run.world.groups[0].model.radius;
+    let mut gaps = Vec::new();
+    for _ in 0..600 {
+        run.step();
+        if run.world.robots[0].state == "circle" {
+            let p = run.world.robot_pose(0).position();
+            let outside =
+                (p.abs() - formica::geometry::Vec2::splat(0.25)).max(formica::geometry::Vec2::ZERO);
+            gaps.push(outside.length() - radius);
+        }
+    }
+    gaps
+}
+
+#[test]
+fn robots_circle_at_the_circling_gap_whatever_their_proximity_curve() {
+    // `circle_gap` is 6 cm. The foot-bot's inverse-law curve read linearly put 2.5 cm at 6 cm,
+    // so foot-bots circled pressed against what they went round (results format 31: median
+    // gap 2.0 cm, touching at times, and circling 227 ticks of 600, stuck the rest); read
+    // through its curve (4.4 cm, 579 ticks), they keep a gap as the Khepera IV (exponential
+    // curve, 4.9 cm) and the e-puck (linear, 6.1 cm) do.
+    for (model, low, high) in [
+        ("foot-bot", 0.035, 0.075),
+        ("khepera4", 0.035, 0.075),
+        ("e-puck", 0.035, 0.075),
+    ] {
+        let gaps = circling_gaps(model);
+        assert!(
+            gaps.len() > 300,
+            "{model}: circled {} ticks of 600",
+            gaps.len()
+        );
+        let mut sorted = gaps.clone();
+        sorted.sort_by(f32::total_cmp);
+        let median = sorted[sorted.len() / 2];
+        assert!(
+            (low..high).contains(&median),
+            "{model}: median gap {median} m, not within {low} to {high}"
+        );
+        assert!(sorted[0] > 0.005, "{model}: came within {} m", sorted[0]);
+    }
+}
