@@ -77,7 +77,6 @@ use crate::controller::{
 use crate::controllers::relay::{self, Relay};
 use crate::geometry::{wrap_angle, Vec2};
 use crate::ops;
-use crate::robot::ProximityCurve;
 use crate::scenario::Color;
 use crate::sensors::{Readings, SensorLayout, SensorNeeds};
 use rand::Rng;
@@ -936,7 +935,7 @@ impl Occlusion {
                     if *v <= NOISE_FLOOR {
                         continue;
                     }
-                    let est = proximity_gap(&self.layout, *v);
+                    let est = (1.0 - v) * range;
                     let is_object = surface.is_some_and(|s| {
                         wrap_angle(a - s.bearing).abs() < 0.8 && (est - s.gap).abs() <= 0.05
                     });
@@ -985,7 +984,7 @@ impl Occlusion {
                 } else if best > 0.0 {
                     Surface {
                         bearing: ops::angle_of(obj),
-                        gap: proximity_gap(&self.layout, best),
+                        gap: (1.0 - best) * range,
                     }
                 } else {
                     // Nothing sensed: the surface lies somewhere toward the centre.
@@ -1250,21 +1249,6 @@ fn scan_bins<'a>(
         .zip(&r.scan_range)
         .zip(angles)
         .map(|((c, d), a)| (*c, *d, *a))
-}
-
-/// The gap (m) to what a proximity reading `v` sees, as `occlusion` estimates it: linearly,
-/// `(1 - v) * range`, where the model's curve is close to that near the circling gap (the
-/// e-puck's curve is linear; the Khepera IV's exponential one reads 6 cm as 6.2 cm and is at
-/// most 1.5 cm off from 5 to 12 cm), and through the curve's inverse where it is not (the
-/// foot-bot's inverse law: linearly, 2.5 cm read as 6 cm, and foot-bots circled pressed
-/// against the object; results format 32).
-pub fn proximity_gap(layout: &SensorLayout, v: f32) -> f32 {
-    match layout.proximity_curve {
-        ProximityCurve::Inverse { .. } => {
-            layout.proximity_curve.distance(v, layout.proximity_range)
-        }
-        _ => (1.0 - v) * layout.proximity_range,
-    }
 }
 
 /// The nearest thing the colour scan shows in a colour `wanted` accepts: its bearing (robot
