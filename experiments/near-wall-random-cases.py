@@ -43,11 +43,11 @@ def case(label, base, extra):
     print()
     print("[[cases]]")
     print(f'label = "{label}"')
-    for k, v in base.items():
-        if k != "label":
-            print(f'{k if k == "scenario" else chr(34) + k + chr(34)} = {value(v)}')
-    for k, v in extra:
-        print(f'"{k}" = {value(v)}')
+    for k, v in list(base.items()) + list(extra):
+        if k == "label":
+            continue
+        key = k if k == "scenario" else f'"{k}"'
+        print(f"{key} = {value(v)}")
 
 
 def main():
