@@ -5,15 +5,16 @@
 
 Reads the trials as `formica report` (or `formica export`) writes them; standard library only.
 Prints, for `occlusion` (defaults, `balance_turn` alone, `squeeze_s` alone, both) and
-`fill-transport` (defaults, both for its pushers), the successes of each draw and of all five,
-with the median time of the successes, then the shapes whose successes differ between options.
+`fill-transport` (defaults, both for its pushers), the successes of each draw, of the first five
+(on which the options were first measured) and of all six, with the median time of the
+successes, then the shapes whose successes differ between options.
 """
 import csv
 import statistics
 import sys
 from collections import defaultdict
 
-DRAWS = ["random", "random-seed8", "random-seed9", "random-seed10", "random-seed11"]
+DRAWS = ["random", "random-seed8", "random-seed9", "random-seed10", "random-seed11", "random-seed12"]
 OPTIONS = ["default", "balance", "squeeze", "both"]
 
 
@@ -33,7 +34,10 @@ def main(path):
             controller = base.rsplit(", ", 1)[1]
             draw = base.split(" shape ")[0]
             ok = row["outcome"] == "success"
-            for key in ((controller, option, draw), (controller, option, "all")):
+            keys = [(controller, option, draw), (controller, option, "all")]
+            if draw != DRAWS[-1]:
+                keys.append((controller, option, "first five"))
+            for key in keys:
                 t = total[key]
                 t[0] += ok
                 t[1] += 1
@@ -41,14 +45,14 @@ def main(path):
                     t[2].append(float(row["sim_time_s"]))
             shape[(base, option)][0] += ok
             shape[(base, option)][1] += 1
-    print("| controller | option | " + " | ".join(DRAWS) + " | all five |")
-    print("|---" * (len(DRAWS) + 3) + "|")
+    print("| controller | option | " + " | ".join(DRAWS) + " | first five | all six |")
+    print("|---" * (len(DRAWS) + 4) + "|")
     for controller in ("occlusion", "fill-transport"):
         for option in OPTIONS:
             if (controller, option, "all") not in total:
                 continue
             cells = []
-            for draw in DRAWS + ["all"]:
+            for draw in DRAWS + ["first five", "all"]:
                 ok, n, times = total[(controller, option, draw)]
                 median = f"{statistics.median(times):.1f} s" if times else "-"
                 cells.append(f"{ok} / {n} ({median})")

@@ -67,7 +67,7 @@ def test_the_random_studies_are_what_their_script_draws():
 
 def test_the_near_wall_random_study_is_what_its_script_writes():
     # experiments/near-wall-random.toml is written by experiments/near-wall-random-cases.py from
-    # the five draws' files: a draw changed without writing it again would leave the study
+    # the six draws' files: a draw changed without writing it again would leave the study
     # running shapes the draws no longer have.
     out = subprocess.run(
         [sys.executable, "experiments/near-wall-random-cases.py"],
@@ -77,7 +77,7 @@ def test_the_near_wall_random_study_is_what_its_script_writes():
         text=True,
     )
     assert out.stdout == (ROOT / "experiments" / "near-wall-random.toml").read_text()
-    assert out.stdout.count("[[cases]]") == 5 * 12 * (4 + 2)
+    assert out.stdout.count("[[cases]]") == 6 * 12 * (4 + 2)
 
 
 def test_the_stall_study_runs_the_draws_stars_as_drawn():
