@@ -15,6 +15,7 @@ use formica::controller::{
     Actuation, AttachCommand, BatchController, BatchRobot, Controller, ControllerFactory,
     FlatReadings, RobotRng, Slot,
 };
+use formica::robot::ProximityCurve;
 use formica::scenario::Color;
 use formica::sensors::{Readings, SensorLayout, SensorNeeds};
 use formica::Registry;
@@ -308,6 +309,7 @@ pub struct PyLayout {
     /// Control period (s): `1 / run.tick_hz`.
     #[pyo3(get)]
     tick_s: f32,
+    proximity_curve: ProximityCurve,
     shape: Arc<Shape>,
 }
 
@@ -322,6 +324,7 @@ impl PyLayout {
             proximity_range: layout.proximity_range,
             beacon_radius: layout.beacon_radius,
             tick_s: layout.tick_s,
+            proximity_curve: layout.proximity_curve,
             shape,
         }
     }
@@ -353,6 +356,13 @@ impl PyLayout {
     fn twist(&self, forward: f32, turn: f32) -> (f32, f32) {
         let half = turn * self.wheel_distance / 2.0;
         (forward - half, forward + half)
+    }
+
+    /// The distance beyond the body (m) that a proximity reading stands for, through the
+    /// model's own curve (the Khepera IV's exponential, the foot-bot's inverse law, the
+    /// e-puck's line): 0 for a saturated reading, `proximity_range` for none.
+    fn proximity_distance(&self, reading: f32) -> f32 {
+        self.proximity_curve.distance(reading, self.proximity_range)
     }
 
     fn __repr__(&self) -> String {

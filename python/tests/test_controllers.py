@@ -308,3 +308,31 @@ def test_the_layout_gives_the_radius_of_the_object_the_beacon_tracks():
     formica.World(scenario("py-sizer", count=2), seed=1, duration=1).step(1)
     # The seed's 0.5 m box: half its diagonal.
     assert len(seen) >= 2 and all(abs(s - 0.5 * 2**0.5 / 2) < 1e-3 for s in seen)
+
+
+def test_the_layout_reads_a_proximity_value_through_the_models_curve():
+    seen = []
+
+    class Reader:
+        needs = ()
+
+        def __init__(self, layout):
+            seen.append([layout.proximity_distance(v) for v in (0.0, 0.2, 0.5, 1.0)] + [layout.proximity_range])
+
+        def step(self, r):
+            return 0.0, 0.0
+
+    formica.register_controller("py-reader", Reader)
+    for model in ("khepera4", "foot-bot", "e-puck"):
+        sc = scenario("py-reader", count=1).set("robots.0.model", model)
+        formica.World(sc, seed=1, duration=1).step(1)
+    import math
+
+    # Each model's curve inverted (crates/formica-core/src/robot.rs): nothing reads the range,
+    # saturation 0, and the readings between give the distances that produce them.
+    assert len(seen) == 3
+    kh, fb, ep = seen
+    assert kh[0] == kh[4] and abs(kh[4] - 0.12) < 1e-6 and kh[3] == 0.0
+    assert abs(kh[1] - (-math.log((0.2 + 0.085) / 4.14) / 33.0)) < 1e-5
+    assert abs(fb[1] - (0.0100527 / 0.2 - 0.000163144)) < 1e-5 and abs(fb[2] - (0.0100527 / 0.5 - 0.000163144)) < 1e-5
+    assert abs(ep[2] - 0.5 * 0.05) < 1e-6
