@@ -323,15 +323,16 @@ def test_the_layout_reads_a_proximity_value_through_the_models_curve():
             return 0.0, 0.0
 
     formica.register_controller("py-reader", Reader)
+    per_model = []
     for model in ("khepera4", "foot-bot", "e-puck"):
         sc = scenario("py-reader", count=1).set("robots.0.model", model)
         formica.World(sc, seed=1, duration=1).step(1)
+        per_model.append(seen[-1])
     import math
 
     # Each model's curve inverted (crates/formica-core/src/robot.rs): nothing reads the range,
     # saturation 0, and the readings between give the distances that produce them.
-    assert len(seen) == 3
-    kh, fb, ep = seen
+    kh, fb, ep = per_model
     assert kh[0] == kh[4] and abs(kh[4] - 0.12) < 1e-6 and kh[3] == 0.0
     assert abs(kh[1] - (-math.log((0.2 + 0.085) / 4.14) / 33.0)) < 1e-5
     assert abs(fb[1] - (0.0100527 / 0.2 - 0.000163144)) < 1e-5 and abs(fb[2] - (0.0100527 / 0.5 - 0.000163144)) < 1e-5
