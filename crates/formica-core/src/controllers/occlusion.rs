@@ -499,9 +499,10 @@ pub struct Occlusion {
     squeezed_since: Option<f32>,
     /// Pushing because squeezed (`Params::squeeze_s`), not because the goal is hidden.
     squeeze_push: bool,
-    /// The pushed face's inward normal (world frame, rad) with the time of each sample (s),
-    /// over the last [`BALANCE_WINDOW_S`], and its turn rate over that window (rad/s).
+    /// Samples of the pushed face over the last [`BALANCE_WINDOW_S`]: time (s) and inward
+    /// normal (world frame, rad).
     face: VecDeque<(f32, f32)>,
+    /// The pushed face's turn rate over that window (rad/s).
     spin: f32,
     /// World-frame direction of the goal when it was last seen (rad).
     goal_dir: Option<f32>,
@@ -935,7 +936,7 @@ impl Occlusion {
                     if *v <= NOISE_FLOOR {
                         continue;
                     }
-                    let est = (1.0 - v) * range;
+                    let est = linear_gap(*v, range);
                     let is_object = surface.is_some_and(|s| {
                         wrap_angle(a - s.bearing).abs() < 0.8 && (est - s.gap).abs() <= 0.05
                     });
@@ -984,7 +985,7 @@ impl Occlusion {
                 } else if best > 0.0 {
                     Surface {
                         bearing: ops::angle_of(obj),
-                        gap: (1.0 - best) * range,
+                        gap: linear_gap(best, range),
                     }
                 } else {
                     // Nothing sensed: the surface lies somewhere toward the centre.
@@ -1237,6 +1238,15 @@ pub fn centroid_in_scan(
     }
     // No bin wanted leaves the sum zero.
     (sum.length() > 1e-6).then(|| ops::angle_of(sum))
+}
+
+/// The gap (m) to what a proximity reading `v` sees, read linearly: `(1 - v) * range`. Exact
+/// for the e-puck's linear curve, close for the Khepera IV's exponential one (6 cm reads as
+/// 6.2 cm), up to 3.7 cm long for the foot-bot's inverse law; reading each model through its
+/// own curve (`ProximityCurve::distance`) was measured and cost foot-bots trials
+/// (docs/src/results/unseen.md, "Foot-bots shove the box").
+fn linear_gap(v: f32, range: f32) -> f32 {
+    (1.0 - v) * range
 }
 
 /// The colour scan's bins as (colour, range, bearing), as far as readings and layout agree.
