@@ -5,8 +5,9 @@
 
 Reads the trials as `formica report` (or `formica export`) writes them; standard library only.
 Prints, for `occlusion` (defaults, `balance_turn` alone, `squeeze_s` alone, both) and
-`fill-transport` (defaults, both for its pushers), the successes of each draw, of the first five
-(on which the options were first measured) and of all six, with the median time of the
+`fill-transport` (defaults, both for its pushers), the successes of each draw (in the order the
+trials list them, as near-wall-random-cases.py writes them), of all draws but the last (the
+first five, on which the options were first measured) and of all, with the median time of the
 successes, then the shapes whose successes differ between options.
 """
 import csv
@@ -14,7 +15,6 @@ import statistics
 import sys
 from collections import defaultdict
 
-DRAWS = ["random", "random-seed8", "random-seed9", "random-seed10", "random-seed11", "random-seed12"]
 OPTIONS = ["default", "balance", "squeeze", "both"]
 
 
@@ -26,33 +26,37 @@ def split(label):
 
 
 def main(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    draws = list(dict.fromkeys(split(row["label"])[0].split(" shape ")[0] for row in rows))
+    held_out = draws[-1]
+    earlier = f"first {len(draws) - 1}"
     total = defaultdict(lambda: [0, 0, []])
     shape = defaultdict(lambda: [0, 0])
-    with open(path, newline="") as f:
-        for row in csv.DictReader(f):
-            base, option = split(row["label"])
-            controller = base.rsplit(", ", 1)[1]
-            draw = base.split(" shape ")[0]
-            ok = row["outcome"] == "success"
-            keys = [(controller, option, draw), (controller, option, "all")]
-            if draw != DRAWS[-1]:
-                keys.append((controller, option, "first five"))
-            for key in keys:
-                t = total[key]
-                t[0] += ok
-                t[1] += 1
-                if ok:
-                    t[2].append(float(row["sim_time_s"]))
-            shape[(base, option)][0] += ok
-            shape[(base, option)][1] += 1
-    print("| controller | option | " + " | ".join(DRAWS) + " | first five | all six |")
-    print("|---" * (len(DRAWS) + 4) + "|")
+    for row in rows:
+        base, option = split(row["label"])
+        controller = base.rsplit(", ", 1)[1]
+        draw = base.split(" shape ")[0]
+        ok = row["outcome"] == "success"
+        keys = [(controller, option, draw), (controller, option, "all")]
+        if draw != held_out:
+            keys.append((controller, option, earlier))
+        for key in keys:
+            t = total[key]
+            t[0] += ok
+            t[1] += 1
+            if ok:
+                t[2].append(float(row["sim_time_s"]))
+        shape[(base, option)][0] += ok
+        shape[(base, option)][1] += 1
+    print(f"| controller | option | {' | '.join(draws)} | {earlier} | all {len(draws)} |")
+    print("|---" * (len(draws) + 4) + "|")
     for controller in ("occlusion", "fill-transport"):
         for option in OPTIONS:
             if (controller, option, "all") not in total:
                 continue
             cells = []
-            for draw in DRAWS + ["first five", "all"]:
+            for draw in draws + [earlier, "all"]:
                 ok, n, times = total[(controller, option, draw)]
                 median = f"{statistics.median(times):.1f} s" if times else "-"
                 cells.append(f"{ok} / {n} ({median})")

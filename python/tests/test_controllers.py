@@ -1,5 +1,7 @@
 """Controllers written in Python: per robot and batched, in run, sweep and World."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -328,7 +330,6 @@ def test_the_layout_reads_a_proximity_value_through_the_models_curve():
         sc = scenario("py-reader", count=1).set("robots.0.model", model)
         formica.World(sc, seed=1, duration=1).step(1)
         per_model.append(seen[-1])
-    import math
 
     # Each model's curve inverted (crates/formica-core/src/robot.rs): nothing reads the range,
     # saturation 0, and the readings between give the distances that produce them.
