@@ -116,7 +116,8 @@ pub struct RunResult {
     /// Robot discs that fit in the cavity (the region between the object and its hull).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cavity_capacity: Option<usize>,
-    /// Attached robots whose centre lies in the cavity.
+    /// Attached robots lying wholly in the cavity, by the test the capacity packs its discs with
+    /// ([`crate::metrics::disc_in_cavity`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cavity_robots: Option<usize>,
     /// Attached robots outside the object's hull (their centre beyond it by over half a radius).
