@@ -46,6 +46,7 @@ class Layout:
     slots: dict[str, tuple[int, int]]
     size: int
     def twist(self, forward: float, turn: float) -> tuple[float, float]: ...
+    def proximity_distance(self, reading: float) -> float: ...
 
 class Readings:
     vector: npt.NDArray[np.float32]

@@ -979,8 +979,9 @@ impl Default for RunSpec {
 pub struct StopSpec {
     /// Stop with `success` when the object's centre is within this distance of the goal's floor
     /// point. Default (Queiroz & MacRae): (goal_size + object size) / 2 + 0.05, object size being
-    /// its bounding diagonal in its own frame, as its outline is written (an outline written
-    /// turned has a larger box than the same outline turned by `yaw_deg`; `check` prints it).
+    /// a lone disc's diameter, otherwise its bounding diagonal in its own frame, as its outline
+    /// is written (an outline written turned has a larger box than the same outline turned by
+    /// `yaw_deg`; `check` prints it).
     #[serde(default)]
     #[cfg_attr(feature = "schema", schemars(range(min = 0.0, max = limits::MAX_COORD_M)))]
     pub goal_radius: Option<f32>,

@@ -136,8 +136,10 @@ pub enum AttachedDrive {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
-    /// Filling-phase parameters (as `filling`; default `object_reach = 0.21`, so attached
-    /// robots stack at most about two deep on the object, and `follow_reading = 0.85`).
+    /// Filling-phase parameters (as `filling`, with other defaults: `object_reach = 0.21`, so
+    /// that attached robots stack at most about two deep on the object, `follow_reading =
+    /// 0.85`, `follow_gain = 2`, `hold_s = 1.5` and `creep_into_gaps = false`, the values its
+    /// figures were measured with).
     pub fill: filling::Params,
     /// Pushing-phase parameters (as `occlusion`).
     pub push: occlusion::Params,
@@ -169,7 +171,7 @@ pub struct Params {
     /// until it lies within `align_deg` of the axis, and attaches again: its wheels then roll,
     /// and push, along the way the object must go instead of skidding sideways. A robot that
     /// cannot attach again within `realign_timeout_s` (the object moved off) becomes a pusher.
-    /// 0: never (results format 13 and earlier).
+    /// 0: never (results format 13 and earlier). Default 10.
     pub realign_s: f32,
     /// See `realign_s`. Default 10.
     pub realign_timeout_s: f32,
@@ -198,10 +200,10 @@ pub struct Params {
     /// Occlusion with memory: a pusher takes the goal as hidden *by the object* only if the
     /// object's centre lies within this angle (degrees) of the goal's last seen direction;
     /// otherwise (neighbours hide it, or the robot stands on the goal's side) it does not push.
-    /// Default 90; 180 turns the check off. Without relays only: with relays the goal is what
-    /// the camera shows (the real goal or a relay), and the pusher's colour scan checks that
-    /// the object lies toward it; the light's last direction would veto pushing toward a relay
-    /// (results format 15).
+    /// Default 90; 180 turns the check off. Without relays only for the `occlusion` pusher: with
+    /// relays the goal is what the camera shows (the real goal or a relay), and the pusher's
+    /// colour scan checks that the object lies toward it; the light's last direction would veto
+    /// pushing toward a relay (results format 15). The `edge` pusher applies it with relays too.
     pub occluded_within_deg: f32,
     /// Seconds after which a filler whose lap has not advanced by `stall_deg` past its record
     /// (its farthest so far, either way round; going back and forth is no progress) becomes a

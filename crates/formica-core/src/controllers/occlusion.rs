@@ -172,7 +172,8 @@ pub struct Params {
     pub hidden_s: f32,
     /// Seconds the goal must stay visible before a pusher circles again. Default 0.3.
     pub visible_s: f32,
-    /// Proximity reading above which a non-object hit is avoided. Default 0.3.
+    /// Length of the summed proximity vector of non-object hits (each reading along its
+    /// sensor's bearing) above which they are avoided. Default 0.3.
     pub avoid_threshold: f32,
     /// Seconds without moving `stuck_dist` after which an approaching or circling robot escapes.
     /// Default 8.

@@ -19,7 +19,8 @@ pub struct Params {
     /// Mean seconds between random turns.
     #[serde(default = "default_turn_every")]
     pub turn_every_s: f32,
-    /// Proximity reading above which the robot turns away.
+    /// Length of the summed proximity vector (each sensor's reading along its bearing) above
+    /// which the robot turns away.
     #[serde(default = "default_avoid")]
     pub avoid_threshold: f32,
 }

@@ -91,7 +91,8 @@ pub struct Params {
     /// the object within this many scan bins of the goal's last bearing: the object, not a
     /// wall or nothing, is what hides the goal there. Default 1 (the bin toward the goal and
     /// its neighbours). 0 uses `occluder_angle_deg` instead (the angle between the goal and
-    /// the object's nearest surface point, which also counts a goal hidden by a wall).
+    /// the object's direction: the beacon's centre, or with camera perception the middle of
+    /// what the scan shows of the object; this also counts a goal hidden by a wall).
     pub occlusion_bins: f32,
     /// A free robot approaches the object if it sees it and has seen a goal (the real one or
     /// a relay) within this many seconds. Default 0: only with a goal in sight now, as Queiroz
