@@ -333,6 +333,10 @@ fn bench_prints_json_lines() {
     ] {
         assert!(lines[1][key].as_f64().unwrap() >= 0.0, "{key}");
     }
+    // The run took time, and it is split between the three.
+    let part = |k: &str| lines[1][k].as_f64().unwrap();
+    assert!(part("us_per_robot_tick") > 0.0);
+    assert!(part("physics_s") > 0.0 && part("sense_s") > 0.0 && part("control_s") > 0.0);
 }
 
 /// Every workload runs, and two threads give the same end state as one.

@@ -92,6 +92,10 @@ fn serve_listens_on_loopback_and_answers() {
         if !resp.contains("\"robots\":3") {
             return Err(format!("--set robots.0.count=3 not applied: {resp:.300}"));
         }
+        let resp = get(&authority, "/api/robot?i=0")?;
+        if !resp.contains("\"controller\":\"random-walk\"") {
+            return Err(format!("--controller random-walk not applied: {resp:.300}"));
+        }
         Ok(())
     })();
     let _ = child.kill();

@@ -142,10 +142,17 @@ fn a_robot_among_neighbours_only_does_not_stop() {
     );
     let sc = scenario(&body);
     let mut run = start(&sc, 1);
-    run_for(&mut run, 3.0);
-    // Still free after a few seconds (the box is 1.1 m away).
-    assert!(run.world.robots[0].attached.is_none());
-    assert_ne!(run.world.robots[0].state, "check");
+    // For 15 s, three times the check (`hold_s`, 4.5 s) it would need to attach: it never
+    // starts one, and never attaches (the box is 1.1 m away).
+    for _ in 0..150 {
+        run.step();
+        assert_ne!(
+            run.world.robots[0].state, "check",
+            "at {} s",
+            run.world.time_s
+        );
+        assert!(run.world.robots[0].attached.is_none());
+    }
 }
 
 #[test]
@@ -516,7 +523,7 @@ fn every_disc_the_capacity_counts_clears_the_object_at_any_turn() {
             }
             fits
         });
-        assert!(n <= 1, "yaw {yaw}: {n} discs in a notch that holds one");
+        assert_eq!(n, 1, "yaw {yaw}: {n} discs in a notch that holds one");
         for p in counted.into_inner() {
             assert!(
                 !inside_polygon(p, &ring),

@@ -186,11 +186,9 @@ fn a_point_with_a_third_number_is_refused_not_cut_short() {
         "{OBJECT}[[robots]]\ncount = 3\ncontroller = \"random-walk\"\nparams = {{ at = [1, 2, 3] }}\nplacement = {{ random = {{ min = [0.5, -1.0], max = [2.0, 1.0] }} }}\n"
     );
     let t = text(&body);
-    let e = Scenario::parse(&t, "t.toml")
-        .err()
-        .map(|e| e.to_string())
-        .unwrap_or_default();
-    assert!(!e.contains("expected two numbers"), "{e}");
+    if let Err(e) = Scenario::parse(&t, "t.toml") {
+        panic!("{e}");
+    }
 }
 
 #[test]

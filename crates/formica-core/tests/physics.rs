@@ -36,20 +36,36 @@ fn three_kheperas_move_the_seed_box() {
 
 #[test]
 fn a_robot_holding_still_is_pushed_by_at_most_its_drive_force() {
-    // A stopped robot resists with its motors; it does not behave like a wall.
-    let sc = scenario(&format!(
-        "{}{}",
-        still_robots(&[[0.5, 0.0, 0.0]]),
-        pushers(&[[0.0, 0.0, 0.0]], 0.1)
-    ));
-    let mut run = start(&sc, 1);
-    for _ in 0..100 {
-        run.world.step();
-    }
-    // Equal drive forces: neither robot gets through the other.
-    let a = run.world.robot_pose(0).position();
-    let b = run.world.robot_pose(1).position();
-    assert!(b.x < a.x, "the pusher passed through the stopped robot");
+    // A stopped robot resists with its motors, up to its drive force: it is no wall. Two
+    // Khepera IV in a line (the rear one pushing the front one: 3 N) drive a stopped Khepera IV
+    // (1.5 N) ahead of them at about their own speed, 0.1 m/s; one Khepera IV (1.5 N) does
+    // not move a stopped foot-bot (15 N).
+    let pushed = |still_model: &str, pusher_xs: &[f32]| {
+        let poses: Vec<[f32; 3]> = pusher_xs.iter().map(|x| [*x, 0.0, 0.0]).collect();
+        let sc = scenario(&format!(
+            "{}model = \"{still_model}\"\n{}",
+            still_robots(&[[0.5, 0.0, 0.0]]),
+            pushers(&poses, 0.1)
+        ));
+        let mut run = start(&sc, 1);
+        for _ in 0..100 {
+            run.world.step();
+        }
+        let a = run.world.robot_pose(0).position();
+        let b = run.world.robot_pose(1).position();
+        assert!(b.x < a.x, "the pusher passed through the stopped robot");
+        a.x - 0.5
+    };
+    let by_two = pushed("khepera4", &[0.0, -0.15]);
+    assert!(
+        by_two > 0.5,
+        "two pushers moved a stopped Khepera IV only {by_two} m in 10 s"
+    );
+    let foot_bot = pushed("foot-bot", &[0.0]);
+    assert!(
+        foot_bot.abs() < 0.01,
+        "one Khepera IV moved a stopped foot-bot {foot_bot} m"
+    );
 }
 
 fn inside_arena(run: &formica::experiment::Run) -> bool {
