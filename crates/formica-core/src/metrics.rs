@@ -550,6 +550,19 @@ pub fn classify_attached(world: &World, obj: usize) -> (usize, usize) {
     (inside, outside)
 }
 
+/// Attached robots of object `obj` whose centre lies in its cavity: inside the object's hull
+/// and outside the object. This is `cavity_robots` as issue 11 first defined it; a robot
+/// astride the cavity's mouth counts, so the count can exceed `cavity_capacity`, which counts
+/// discs lying wholly inside (as `cavity_robots` does, [`classify_attached`]).
+pub fn centred_in_cavity(world: &World, obj: usize) -> usize {
+    let hull = object_hull(world, obj);
+    let body = world.objects[obj].body;
+    attached_discs(world, obj)
+        .into_iter()
+        .filter(|(c, _)| inside_depth(&hull, *c) > 0.0 && !world.physics.contains(body, *c))
+        .count()
+}
+
 /// Filling metrics and the `on_filled` stop rule.
 pub struct FillHooks {
     on_filled: Option<f32>,
@@ -625,5 +638,9 @@ impl LoopFunctions for FillHooks {
         r.cavity_capacity = self.capacity;
         r.cavity_robots = Some(inside);
         r.false_stops = Some(outside);
+        r.extra.insert(
+            "cavity_centres".into(),
+            serde_json::Value::from(centred_in_cavity(world, t)),
+        );
     }
 }

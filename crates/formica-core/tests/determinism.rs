@@ -74,9 +74,9 @@ const GOLDEN_CONSTANT: u64 = 0x4a19_dc20_1280_a25e;
 /// `occlusion`: `scenarios/seed-transport.toml`, 30 s.
 const GOLDEN_OCCLUSION: u64 = 0x3d76_f8cd_12ac_b673;
 /// `filling`: `scenarios/seed-fill-u.toml`, 30 s.
-const GOLDEN_FILLING: u64 = 0x19c3_204c_5d7c_735b;
+const GOLDEN_FILLING: u64 = 0xd1b0_bc37_a571_b29c;
 /// `fill-transport`: `scenarios/fill-transport-u.toml`, 30 s.
-const GOLDEN_FILL_TRANSPORT: u64 = 0xa668_0639_546f_a0d3;
+const GOLDEN_FILL_TRANSPORT: u64 = 0x61cb_21d6_777c_f8f9;
 
 fn check_golden(name: &str, constant: &str, golden: u64, (d, json): (u64, String)) {
     assert_eq!(

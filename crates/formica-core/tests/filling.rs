@@ -115,6 +115,19 @@ fn robots_fill_the_corner_of_the_seeds_l_with_three_discs_wholly_inside() {
             res.cavity_robots
         );
         assert_eq!(res.false_stops, Some(0), "seed {seed}");
+        // `cavity_centres`, counted again by plain geometry: attached robots whose centre lies
+        // inside the hull and outside both of the L's parts. It counts every robot wholly
+        // inside, and the robots astride the cavity's mouth too.
+        let w = &run.world;
+        let hull = formica::metrics::object_hull(w, 0);
+        let parts = w.object_outlines(0);
+        let centred = (0..w.robots.len())
+            .filter(|i| w.robots[*i].attached.is_some())
+            .map(|i| w.robot_pose(i).position())
+            .filter(|p| inside_polygon(*p, &hull) && !parts.iter().any(|r| inside_polygon(*p, r)))
+            .count();
+        assert_eq!(res.extra["cavity_centres"], centred, "seed {seed}");
+        assert!(centred >= res.cavity_robots.unwrap(), "seed {seed}");
     }
 }
 
