@@ -12,8 +12,10 @@ reads "?"):
     python3 experiments/obstacle-tables.py qmo-n5-15-ft.db qmo-n20-ft.db qmo-n30-ft.db
 
 Standard library only. A cell is the successes of the 350 trials (7 shapes x 50 seeds) and,
-in brackets, the time by which half of them had arrived (the ceil(n/2)-th arrival; none if
-fewer than half did), as `formica report` computes its median time.
+in brackets, the time by which half of them had arrived: the ceil(n/2)-th arrival, none if
+fewer than half did. For an even count this is the lower of the two middle times, where
+`formica report`'s censored median takes their mean (and needs more than half to arrive), so
+the report's medians of the same trials can be 1 to 5 s higher.
 """
 import sqlite3
 import sys
