@@ -132,7 +132,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         writeln!(out, "params,seed,t,x,y,theta").context("writing CSV")?;
         let stored = store.trajectories(usize::MAX >> 1)?;
         if stored.is_empty() {
-            eprintln!(
+            errln!(
                 "warning: {} holds no trajectories ({} has the header only): sweep with \
                  --trajectories to store them",
                 a.db.display(),
@@ -148,7 +148,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         out.flush().context("writing CSV")?;
     }
     if a.csv.as_os_str() != "-" {
-        eprintln!("wrote {n} trials to {}", a.csv.display());
+        errln!("wrote {n} trials to {}", a.csv.display());
     }
     Ok(())
 }

@@ -125,7 +125,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     let moved = separate_shared_numbers(&mut store)?;
     if moved > 0 {
-        eprintln!(
+        errln!(
             "{}: warning: {moved} trial(s) shared a number with another (trials a sweep file's \
              grid no longer had, numbered after it in each store); they are numbered after the \
              highest",

@@ -132,6 +132,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
         occlusion: a.occlusion,
         max_frames: a.max_frames,
     };
+    if let Some(db) = &a.db {
+        crate::refuse_overwriting(&a.out, db, "result store")?;
+    }
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }

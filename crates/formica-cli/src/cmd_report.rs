@@ -374,6 +374,9 @@ pub fn main(a: Args) -> Result<(), CliError> {
             a.out.display()
         )));
     }
+    for name in ["summary.md", "trials.csv"] {
+        crate::refuse_overwriting(&a.out.join(name), &a.db, "result store")?;
+    }
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     plots::init_font()?;
     let dir = a.out.as_path();

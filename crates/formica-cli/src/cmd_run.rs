@@ -187,7 +187,7 @@ fn load_scenario(path: &std::path::Path, set: &[String]) -> Result<Scenario, Cli
         return Ok(Scenario::load(path)?);
     }
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
+    let text = formica::limits::read_text(path)
         .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
     let mut overrides = Vec::with_capacity(set.len());
     for item in set {
@@ -268,7 +268,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     crate::check_duration(a.duration)?;
     crate::check_seed(a.seed)?;
     for w in crate::cmd_check::warnings_before_run(&sc) {
-        eprintln!("{}: warning: {w}", sc.file);
+        errln!("{}: warning: {w}", sc.file);
     }
     match &a.seeds {
         Some(s) => run_many(&a, &sc, parse_seeds(s)?),
@@ -336,7 +336,7 @@ fn run_one(
             )
         };
         if a.json {
-            eprintln!("{line}");
+            errln!("{line}");
         } else {
             outln!("{line}");
         }
@@ -455,7 +455,7 @@ fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
             )
         };
         if a.json {
-            eprintln!("{line}");
+            errln!("{line}");
         } else {
             outln!("{line}");
         }
@@ -467,7 +467,7 @@ fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
         replays.len() - differ
     );
     if a.json {
-        eprintln!("{summary}");
+        errln!("{summary}");
     } else {
         outln!("{summary}");
     }

@@ -98,7 +98,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     })?;
     let addr = server.local_addr();
     if !addr.ip().is_loopback() {
-        eprintln!(
+        errln!(
             "warning: listening on {addr}, reachable from other machines; the viewer has no authentication"
         );
     }

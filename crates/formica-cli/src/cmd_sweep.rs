@@ -149,9 +149,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
         )
         .map_err(|e| CliError::Input(format!("{} (parameter set {})", e, set.key)))?;
         for w in crate::cmd_check::run_warnings(&set.scenario, &run.world) {
-            eprintln!(
+            errln!(
                 "{}: warning: {w} (parameter set {})",
-                set.scenario.file, set.key
+                set.scenario.file,
+                set.key
             );
         }
     }
@@ -240,7 +241,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .collect();
         orphans.sort();
         if !orphans.is_empty() {
-            eprintln!(
+            errln!(
                 "{}: warning: {} stored trial(s) belong to parameter sets or seeds this sweep file no longer has; they stay in {}, numbered from {} on",
                 sweep.name,
                 orphans.len(),
@@ -279,7 +280,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     );
     if skipped > 0 && !a.quiet {
         let missing = mine.len() - skipped;
-        eprintln!(
+        errln!(
             "{}: {skipped} of {} trials already in {}, running {}",
             sweep.name,
             mine.len(),

@@ -12,6 +12,20 @@ macro_rules! outln {
     };
 }
 
+/// Like `eprintln!`, but a failed write to stderr (a log file on a full disk) is ignored
+/// instead of panicking: what the command writes to its files and its exit code stand.
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::console::err_line(format_args!($($arg)*))
+    };
+}
+
+/// Writes one line to stderr, ignoring a failure.
+pub fn err_line(args: std::fmt::Arguments) {
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(args).and_then(|()| err.write_all(b"\n"));
+}
+
 static CLOSED: AtomicBool = AtomicBool::new(false);
 
 /// Writes one line to stdout, unless the reader has gone.
@@ -26,7 +40,7 @@ pub fn line(args: std::fmt::Arguments) {
         .and_then(|()| out.flush());
     if let Err(e) = written {
         if e.kind() != std::io::ErrorKind::BrokenPipe {
-            eprintln!("warning: writing to stdout: {e}; further output dropped");
+            errln!("warning: writing to stdout: {e}; further output dropped");
         }
         CLOSED.store(true, Ordering::Relaxed);
     }

@@ -162,6 +162,7 @@ pub(crate) fn refuse_overwriting(
         return Ok(());
     };
     let same = out_c == in_c
+        || same_inode(out, input)
         || ["-wal", "-shm", "-journal"].iter().any(|suffix| {
             let mut companion = in_c.clone().into_os_string();
             companion.push(suffix);
@@ -176,6 +177,19 @@ pub(crate) fn refuse_overwriting(
         )));
     }
     Ok(())
+}
+
+/// Whether two existing paths are one file through a hard link (Unix; elsewhere false).
+fn same_inode(a: &std::path::Path, b: &std::path::Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return x.dev() == y.dev() && x.ino() == y.ino();
+        }
+    }
+    let _ = (a, b);
+    false
 }
 
 /// What a file given to a command looks like, for an error that says what was given and
@@ -199,10 +213,7 @@ pub(crate) fn file_kind(path: &std::path::Path) -> Option<FileKind> {
     if f.read_exact(&mut head).is_ok() && &head == b"SQLite format 3\0" {
         return Some(FileKind::Sqlite);
     }
-    if std::fs::metadata(path).ok()?.len() > formica::limits::MAX_FILE_BYTES as u64 {
-        return None;
-    }
-    let table: toml::Table = toml::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
+    let table: toml::Table = toml::from_str(&formica::limits::read_text(path).ok()?).ok()?;
     let arena = table.contains_key("arena");
     let sweep = ["scenario", "seeds", "vary", "cases"]
         .iter()
@@ -354,7 +365,7 @@ where
     match dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::from(e.code)
         }
     }

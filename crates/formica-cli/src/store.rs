@@ -149,6 +149,11 @@ fn table_names(conn: &Connection) -> rusqlite::Result<Vec<String>> {
 }
 
 impl Store {
+    /// `what`, prefixed with the store's file, for an error message.
+    fn at(&self, what: &str) -> String {
+        format!("{}: {what}", self.path.display())
+    }
+
     /// Opens (creating if needed) a store. An SQLite file with tables but no `trials` table
     /// (another program's) is refused untouched.
     pub fn open(path: &Path) -> Result<Store, CliError> {
@@ -160,7 +165,7 @@ impl Store {
         }
         let conn = Connection::open(path).with_context(|| format!("opening {}", path.display()))?;
         conn.busy_timeout(std::time::Duration::from_secs(30))
-            .context("setting the busy timeout")?;
+            .with_context(|| format!("{}: setting the busy timeout", path.display()))?;
         // The first statement that reads the file: one that is not SQLite fails here, and
         // another program's SQLite file is refused before anything of ours is written to it.
         let tables = match table_names(&conn) {
@@ -193,7 +198,7 @@ impl Store {
         conn.pragma_update(None, "journal_mode", "WAL")
             .with_context(|| format!("{}: enabling WAL", path.display()))?;
         conn.pragma_update(None, "synchronous", "NORMAL")
-            .context("setting synchronous")?;
+            .with_context(|| format!("{}: setting synchronous", path.display()))?;
         let metrics: Vec<String> = METRICS
             .iter()
             .map(|(n, t)| format!("{} {t}", ident(n)))
@@ -269,7 +274,7 @@ impl Store {
             .conn
             .query_row("SELECT value FROM meta WHERE key = ?1", [key], |r| r.get(0))
             .optional()
-            .context("reading meta")?)
+            .with_context(|| self.at("reading meta"))?)
     }
 
     /// Sets a meta value.
@@ -279,7 +284,7 @@ impl Store {
                 "INSERT OR REPLACE INTO meta (key, value) VALUES (?1, ?2)",
                 [key, value],
             )
-            .context("writing meta")?;
+            .with_context(|| self.at("writing meta"))?;
         Ok(())
     }
 
@@ -395,7 +400,7 @@ impl Store {
         }
         self.set_meta(
             "keys",
-            &serde_json::to_string(&keys).context("encoding keys")?,
+            &serde_json::to_string(&keys).with_context(|| self.at("encoding keys"))?,
         )?;
         self.ensure_columns(&sweep.keys)
     }
@@ -404,7 +409,7 @@ impl Store {
     pub fn set_writers(&self, writers: &[Writer]) -> Result<(), CliError> {
         self.set_meta(
             "writers",
-            &serde_json::to_string(writers).context("encoding writers")?,
+            &serde_json::to_string(writers).with_context(|| self.at("encoding writers"))?,
         )
     }
 
@@ -431,15 +436,15 @@ impl Store {
         let mut st = self
             .conn
             .prepare("SELECT params, seed FROM trials")
-            .context("reading trials")?;
+            .with_context(|| self.at("reading trials"))?;
         let rows = st
             .query_map([], |r| {
                 Ok((r.get::<_, String>(0)?, r.get::<_, i64>(1)? as u64))
             })
-            .context("reading trials")?;
+            .with_context(|| self.at("reading trials"))?;
         let mut out = HashSet::new();
         for r in rows {
-            out.insert(r.context("reading trials")?);
+            out.insert(r.with_context(|| self.at("reading trials"))?);
         }
         Ok(out)
     }
@@ -447,19 +452,24 @@ impl Store {
     /// Sets the grid index of stored trials (`(params, seed) -> trial`), so that a sweep file
     /// whose grid grew keeps its rows in grid order.
     pub fn reindex(&mut self, index: &[(&str, u64, usize)]) -> Result<(), CliError> {
-        let tx = self.conn.transaction().context("starting a transaction")?;
+        let path = self.path.display().to_string();
+        let at = |w: &str| format!("{path}: {w}");
+        let tx = self
+            .conn
+            .transaction()
+            .with_context(|| at("starting a transaction"))?;
         {
             let mut st = tx
                 .prepare(
                     "UPDATE trials SET trial = ?1 WHERE params = ?2 AND seed = ?3 AND trial <> ?1",
                 )
-                .context("renumbering trials")?;
+                .with_context(|| at("renumbering trials"))?;
             for (p, seed, i) in index {
                 st.execute(params![*i as i64, p, *seed as i64])
-                    .context("renumbering trials")?;
+                    .with_context(|| at("renumbering trials"))?;
             }
         }
-        tx.commit().context("renumbering trials")?;
+        tx.commit().with_context(|| at("renumbering trials"))?;
         Ok(())
     }
 
@@ -468,7 +478,7 @@ impl Store {
         let n: i64 = self
             .conn
             .query_row("SELECT COUNT(*) FROM trials", [], |r| r.get(0))
-            .context("counting trials")?;
+            .with_context(|| self.at("counting trials"))?;
         Ok(n as usize)
     }
 
@@ -567,7 +577,12 @@ impl Store {
             vals.push(sql_of_json(v));
         }
         let marks: Vec<String> = (1..=vals.len()).map(|i| format!("?{i}")).collect();
-        let tx = self.conn.transaction().context("starting a transaction")?;
+        let path = self.path.display().to_string();
+        let at = |w: &str| format!("{path}: {w}");
+        let tx = self
+            .conn
+            .transaction()
+            .with_context(|| at("starting a transaction"))?;
         tx.execute(
             &format!(
                 "INSERT OR REPLACE INTO trials ({}) VALUES ({})",
@@ -576,23 +591,23 @@ impl Store {
             ),
             rusqlite::params_from_iter(vals),
         )
-        .context("storing a trial")?;
+        .with_context(|| at("storing a trial"))?;
         if let Some(tr) = &row.trajectory {
-            let json = serde_json::to_string(tr).context("encoding a trajectory")?;
+            let json = serde_json::to_string(tr).with_context(|| at("encoding a trajectory"))?;
             tx.execute(
                 "INSERT OR REPLACE INTO trajectories (params, seed, samples) VALUES (?1, ?2, ?3)",
                 params![row.params, r.seed as i64, json],
             )
-            .context("storing a trajectory")?;
+            .with_context(|| at("storing a trajectory"))?;
         }
         if let Some(series) = &row.timeseries {
             tx.execute(
                 "INSERT OR REPLACE INTO timeseries (params, seed, series) VALUES (?1, ?2, ?3)",
                 params![row.params, r.seed as i64, series],
             )
-            .context("storing a time series")?;
+            .with_context(|| at("storing a time series"))?;
         }
-        tx.commit().context("committing a trial")?;
+        tx.commit().with_context(|| at("committing a trial"))?;
         Ok(())
     }
 
@@ -630,7 +645,7 @@ impl Store {
                 "SELECT {} FROM trials {filter} ORDER BY trial, seed",
                 sel.join(", ")
             ))
-            .context("reading trials")?;
+            .with_context(|| self.at("reading trials"))?;
         // Column positions by name: the selection is HEAD, METRICS, PROVENANCE, then extras.
         let names: Vec<&str> = HEAD
             .iter()
@@ -699,10 +714,10 @@ impl Store {
                     },
                 })
             })
-            .context("reading trials")?;
+            .with_context(|| self.at("reading trials"))?;
         let mut out = Vec::new();
         for r in rows {
-            out.push(r.context("reading a trial")?);
+            out.push(r.with_context(|| self.at("reading a trial"))?);
         }
         Ok(out)
     }
@@ -714,7 +729,7 @@ impl Store {
             .prepare(
                 "SELECT params, seed, samples FROM trajectories ORDER BY params, seed LIMIT ?1",
             )
-            .context("reading trajectories")?;
+            .with_context(|| self.at("reading trajectories"))?;
         let rows = st
             .query_map([limit as i64], |r| {
                 Ok((
@@ -723,12 +738,12 @@ impl Store {
                     r.get::<_, String>(2)?,
                 ))
             })
-            .context("reading trajectories")?;
+            .with_context(|| self.at("reading trajectories"))?;
         let mut out = Vec::new();
         for r in rows {
-            let (p, s, json) = r.context("reading a trajectory")?;
+            let (p, s, json) = r.with_context(|| self.at("reading a trajectory"))?;
             let samples: Vec<[f64; 4]> =
-                serde_json::from_str(&json).context("decoding a trajectory")?;
+                serde_json::from_str(&json).with_context(|| self.at("decoding a trajectory"))?;
             out.push((p, s, samples));
         }
         Ok(out)
@@ -741,7 +756,7 @@ impl Store {
                 "INSERT OR IGNORE INTO scenarios (sha256, file, toml) VALUES (?1, ?2, ?3)",
                 [sha256, file, toml],
             )
-            .context("storing a scenario")?;
+            .with_context(|| self.at("storing a scenario"))?;
         Ok(())
     }
 
@@ -755,7 +770,7 @@ impl Store {
                 |r| Ok((r.get(0)?, r.get(1)?)),
             )
             .optional()
-            .context("reading a scenario")?)
+            .with_context(|| self.at("reading a scenario"))?)
     }
 
     /// The builds that wrote into the store (`meta` key `writers`).

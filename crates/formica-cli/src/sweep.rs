@@ -231,7 +231,7 @@ impl Sweep {
     /// Reads a sweep file, expands its grid and validates every parameter set.
     pub fn load(path: &Path) -> Result<Sweep, CliError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path)
+        let text = formica::limits::read_text(path)
             .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
         let spec: SweepSpec = toml::from_str(&text).map_err(|e| {
             if crate::file_kind(path) == Some(crate::FileKind::Scenario) {
@@ -346,10 +346,13 @@ impl Sweep {
             ));
         }
         for (k, values) in &vary {
+            // By the value as TOML writes it: a set, not a comparison of every pair (a list
+            // may hold up to `MAX_SETS` values).
+            let mut seen = std::collections::HashSet::with_capacity(values.len());
             if let Some((i, v)) = values
                 .iter()
                 .enumerate()
-                .find(|(i, v)| values[..*i].contains(v))
+                .find(|(_, v)| !seen.insert(v.to_string()))
             {
                 return Err(input(format!(
                     "`{k}`: the value {v} is listed twice (item {} of the list); each value \
@@ -430,7 +433,7 @@ impl Sweep {
             }
             let p = dir.join(rel);
             let name = p.display().to_string();
-            let t = std::fs::read_to_string(&p)
+            let t = formica::limits::read_text(&p)
                 .map_err(|e| input(format!("`{rel}`: cannot read {name}: {e}")))?;
             texts.insert(rel.to_string(), (name.clone(), t.clone()));
             Ok((name, t))

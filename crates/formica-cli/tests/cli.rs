@@ -288,6 +288,33 @@ fn broken_files_get_file_line_and_expectation_with_exit_2() {
 }
 
 #[test]
+fn endless_files_deep_keys_and_a_full_stderr_get_exit_2_not_a_crash() {
+    // An endless "file" is refused once past the size limit, not read into memory.
+    let out = formica().args(["check", "/dev/zero"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("larger than"));
+    // A dotted key of 20,000 parts (it overflowed the stack building nested tables).
+    let key = vec!["a"; 20_000].join(".");
+    let out = formica()
+        .arg("check")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--set", &format!("{key}=1")])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("at most 32 dot-separated parts"));
+    // An error message to a stderr that cannot be written (a full disk) still exits 2.
+    if let Ok(full) = std::fs::File::create("/dev/full") {
+        let out = formica()
+            .args(["check", "no-such-file.toml"])
+            .stderr(full)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+    }
+}
+
+#[test]
 fn missing_file_is_an_input_error() {
     let out = formica()
         .args(["check", "no-such-file.toml"])

@@ -36,6 +36,46 @@ const PROVENANCE: [&str; 4] = [
 ];
 
 #[test]
+fn record_and_report_never_write_over_the_store_they_read() {
+    let dir = tmp("overwrite");
+    let db = smoke_store(&dir);
+    let size = std::fs::metadata(&db).unwrap().len();
+    // `record --out` naming the store itself (through a link ending in .gif).
+    let link = dir.join("store.gif");
+    let _ = std::fs::remove_file(&link);
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(&db, &link).unwrap();
+    #[cfg(unix)]
+    {
+        let out = formica()
+            .arg("record")
+            .arg("--db")
+            .arg(&db)
+            .args(["--trial", "0", "--max-frames", "3", "--out"])
+            .arg(&link)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&out.stderr).contains("writing it would destroy it"));
+    }
+    // A store named trials.csv in the report's folder.
+    let rx = dir.join("rx");
+    std::fs::create_dir_all(&rx).unwrap();
+    let inside = rx.join("trials.csv");
+    std::fs::copy(&db, &inside).unwrap();
+    let out = formica()
+        .arg("report")
+        .arg(&inside)
+        .arg("--out")
+        .arg(&rx)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(std::fs::metadata(&inside).unwrap().len(), size);
+    assert_eq!(std::fs::metadata(&db).unwrap().len(), size);
+}
+
+#[test]
 fn every_smoke_trial_replays_to_its_stored_outcome_and_time_exactly() {
     let dir = tmp("smoke");
     let db = smoke_store(&dir);

@@ -13,6 +13,24 @@ use toml::Spanned;
 
 /// Largest scenario file (bytes).
 pub const MAX_FILE_BYTES: usize = 64 << 20;
+/// Reads a text file of at most [`MAX_FILE_BYTES`], without reading more than one byte past
+/// that: a larger file, or an endless one (`/dev/zero`), is refused once the limit is passed
+/// instead of filling memory.
+pub fn read_text(path: &std::path::Path) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(MAX_FILE_BYTES as u64 + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() > MAX_FILE_BYTES {
+        return Err(std::io::Error::other(format!(
+            "larger than the {MAX_FILE_BYTES} bytes a file may have"
+        )));
+    }
+    String::from_utf8(bytes)
+        .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
+}
+
 /// Deepest nesting of arrays and inline tables in a scenario file.
 pub const MAX_NESTING: usize = 32;
 /// Most robots in one scenario (all groups together).

@@ -1202,7 +1202,7 @@ impl Scenario {
         registry: &Registry,
     ) -> Result<Scenario, ScenarioError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+        let text = limits::read_text(path).map_err(|e| ScenarioError::Io {
             file: file.clone(),
             message: e.to_string(),
         })?;
@@ -1324,6 +1324,13 @@ impl Scenario {
             let parts: Vec<&str> = key.split('.').collect();
             if parts.iter().any(|p| p.is_empty()) {
                 return Err("expected a dotted key such as `robots.0.count`".into());
+            }
+            if parts.len() > limits::MAX_NESTING {
+                return Err(format!(
+                    "expected a key of at most {} dot-separated parts, found {}",
+                    limits::MAX_NESTING,
+                    parts.len()
+                ));
             }
             let mut here: &mut toml::Value = match root.get_mut(parts[0]) {
                 Some(v) if parts.len() > 1 => v,
