@@ -125,6 +125,17 @@ pub fn main(a: Args) -> Result<(), CliError> {
     for out in std::iter::once(&a.csv).chain(&a.trajectories) {
         prepare_out(out, &a.db)?;
     }
+    if let Some(tp) = &a.trajectories {
+        let same = tp == &a.csv
+            || (crate::resolve_path(tp).is_some()
+                && crate::resolve_path(tp) == crate::resolve_path(&a.csv));
+        if same {
+            return Err(CliError::Input(format!(
+                "--trajectories {}: the same file as --csv; give each its own",
+                tp.display()
+            )));
+        }
+    }
     let store = Store::open_existing(&a.db)?;
     let n = write_trials(&store, &mut open_out(&a.csv)?)?;
     if let Some(tp) = &a.trajectories {

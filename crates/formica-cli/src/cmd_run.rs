@@ -248,6 +248,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
     if let Some(db) = &a.db {
         return replay_trials(&a, db);
     }
+    if a.trial.is_some() {
+        return Err(CliError::Input(
+            "--trial replays a stored trial: it needs --db STUDY.db (and no scenario file)".into(),
+        ));
+    }
     let Some(path) = &a.scenario else {
         return Err(CliError::Input(
             "expected a scenario file, or --db STUDY.db --trial N".into(),

@@ -148,17 +148,7 @@ pub(crate) fn refuse_overwriting(
     input: &std::path::Path,
     what: &str,
 ) -> Result<(), CliError> {
-    // The output may not exist yet (an SQLite companion comes and goes): resolve its folder.
-    let resolve = |p: &std::path::Path| {
-        p.canonicalize().ok().or_else(|| {
-            let dir = match p.parent() {
-                Some(d) if !d.as_os_str().is_empty() => d,
-                _ => std::path::Path::new("."),
-            };
-            Some(dir.canonicalize().ok()?.join(p.file_name()?))
-        })
-    };
-    let (Some(out_c), Ok(in_c)) = (resolve(out), input.canonicalize()) else {
+    let (Some(out_c), Ok(in_c)) = (resolve_path(out), input.canonicalize()) else {
         return Ok(());
     };
     let same = out_c == in_c
@@ -177,6 +167,18 @@ pub(crate) fn refuse_overwriting(
         )));
     }
     Ok(())
+}
+
+/// `p` made absolute with links resolved; a file that does not exist yet (an output, an SQLite
+/// companion that comes and goes) by its folder's resolved path.
+pub(crate) fn resolve_path(p: &std::path::Path) -> Option<std::path::PathBuf> {
+    p.canonicalize().ok().or_else(|| {
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => std::path::Path::new("."),
+        };
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    })
 }
 
 /// Whether two existing paths are one file through a hard link (Unix; elsewhere false).

@@ -73,6 +73,25 @@ fn record_and_report_never_write_over_the_store_they_read() {
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(std::fs::metadata(&inside).unwrap().len(), size);
     assert_eq!(std::fs::metadata(&db).unwrap().len(), size);
+    // `export` with one file for both CSVs (the trajectories would replace the trials).
+    let out = formica()
+        .arg("export")
+        .arg(&db)
+        .arg("--csv")
+        .arg(dir.join("x.csv"))
+        .arg("--trajectories")
+        .arg(dir.join(".").join("x.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    // `--trial` without `--db` is refused, not ignored.
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--trial", "3"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
 }
 
 #[test]
