@@ -312,7 +312,7 @@ impl Store {
             })?),
         };
         if self.count()? > 0 && theirs != Some(me.results_format) && !allow_mixed {
-            let who = if writers.is_empty() {
+            let mut who = if writers.is_empty() {
                 "a Formica that recorded no results format (older than provenance)".to_string()
             } else {
                 writers
@@ -321,6 +321,9 @@ impl Store {
                     .collect::<Vec<_>>()
                     .join("; ")
             };
+            if let Some(f) = theirs {
+                who += &format!(" (its meta records results format {f})");
+            }
             return Err(CliError::Input(format!(
                 "{}: its trials were written by {who}; this is Formica {}. Results can differ between results formats, so resuming would mix them in one store. Use another --db, or --allow-mixed to add to it anyway (every row records the build that wrote it)",
                 path.display(),
@@ -660,7 +663,14 @@ impl Store {
                 let outcome = match outcome.as_str() {
                     "success" => Outcome::Success,
                     "wall" => Outcome::Wall,
-                    _ => Outcome::Timeout,
+                    "timeout" => Outcome::Timeout,
+                    other => {
+                        return Err(rusqlite::Error::FromSqlConversionFailure(
+                            at("outcome"),
+                            rusqlite::types::Type::Text,
+                            format!("unknown outcome `{other}`").into(),
+                        ))
+                    }
                 };
                 let params: String = r.get(at("params"))?;
                 let text = |i: usize| -> rusqlite::Result<String> {
