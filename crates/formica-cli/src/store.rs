@@ -154,6 +154,16 @@ impl Store {
         format!("{}: {what}", self.path.display())
     }
 
+    /// A transaction, and the store's file for its error messages.
+    fn begin(&mut self) -> Result<(rusqlite::Transaction<'_>, Located), CliError> {
+        let at = Located(self.path.display().to_string());
+        let tx = self
+            .conn
+            .transaction()
+            .with_context(|| at.of("starting a transaction"))?;
+        Ok((tx, at))
+    }
+
     /// Opens (creating if needed) a store. An SQLite file with tables but no `trials` table
     /// (another program's) is refused untouched.
     pub fn open(path: &Path) -> Result<Store, CliError> {
@@ -455,24 +465,19 @@ impl Store {
     /// Sets the grid index of stored trials (`(params, seed) -> trial`), so that a sweep file
     /// whose grid grew keeps its rows in grid order.
     pub fn reindex(&mut self, index: &[(&str, u64, usize)]) -> Result<(), CliError> {
-        let path = self.path.display().to_string();
-        let at = |w: &str| format!("{path}: {w}");
-        let tx = self
-            .conn
-            .transaction()
-            .with_context(|| at("starting a transaction"))?;
+        let (tx, at) = self.begin()?;
         {
             let mut st = tx
                 .prepare(
                     "UPDATE trials SET trial = ?1 WHERE params = ?2 AND seed = ?3 AND trial <> ?1",
                 )
-                .with_context(|| at("renumbering trials"))?;
+                .with_context(|| at.of("renumbering trials"))?;
             for (p, seed, i) in index {
                 st.execute(params![*i as i64, p, *seed as i64])
-                    .with_context(|| at("renumbering trials"))?;
+                    .with_context(|| at.of("renumbering trials"))?;
             }
         }
-        tx.commit().with_context(|| at("renumbering trials"))?;
+        tx.commit().with_context(|| at.of("renumbering trials"))?;
         Ok(())
     }
 
@@ -580,12 +585,7 @@ impl Store {
             vals.push(sql_of_json(v));
         }
         let marks: Vec<String> = (1..=vals.len()).map(|i| format!("?{i}")).collect();
-        let path = self.path.display().to_string();
-        let at = |w: &str| format!("{path}: {w}");
-        let tx = self
-            .conn
-            .transaction()
-            .with_context(|| at("starting a transaction"))?;
+        let (tx, at) = self.begin()?;
         tx.execute(
             &format!(
                 "INSERT OR REPLACE INTO trials ({}) VALUES ({})",
@@ -594,23 +594,23 @@ impl Store {
             ),
             rusqlite::params_from_iter(vals),
         )
-        .with_context(|| at("storing a trial"))?;
+        .with_context(|| at.of("storing a trial"))?;
         if let Some(tr) = &row.trajectory {
-            let json = serde_json::to_string(tr).with_context(|| at("encoding a trajectory"))?;
+            let json = serde_json::to_string(tr).with_context(|| at.of("encoding a trajectory"))?;
             tx.execute(
                 "INSERT OR REPLACE INTO trajectories (params, seed, samples) VALUES (?1, ?2, ?3)",
                 params![row.params, r.seed as i64, json],
             )
-            .with_context(|| at("storing a trajectory"))?;
+            .with_context(|| at.of("storing a trajectory"))?;
         }
         if let Some(series) = &row.timeseries {
             tx.execute(
                 "INSERT OR REPLACE INTO timeseries (params, seed, series) VALUES (?1, ?2, ?3)",
                 params![row.params, r.seed as i64, series],
             )
-            .with_context(|| at("storing a time series"))?;
+            .with_context(|| at.of("storing a time series"))?;
         }
-        tx.commit().with_context(|| at("committing a trial"))?;
+        tx.commit().with_context(|| at.of("committing a trial"))?;
         Ok(())
     }
 
@@ -826,6 +826,15 @@ pub struct StoredTrial {
     pub params_json: String,
     /// The metrics (`wall_time_s` as measured).
     pub result: RunResult,
+}
+
+/// A store's file, to put before what failed in an error message.
+struct Located(String);
+
+impl Located {
+    fn of(&self, what: &str) -> String {
+        format!("{}: {what}", self.0)
+    }
 }
 
 /// Column names of `trials` in schema `db`.
