@@ -69,7 +69,7 @@ impl Actuation {
 /// tracker: each tick it predicts with the turn rate its wheels were last told
 /// ([`HeadingFilter::commanded`]) and moves toward the positioning sensor's heading by `gain`.
 /// With independent heading noise of spread s and wheels that do what they are told, the
-/// estimate's spread is s * sqrt(gain / (2 - gain)) (0.41 s at gain 0.3); where the wheels
+/// estimate's spread is s * sqrt(gain / (2 - gain)) (0.42 s at gain 0.3); where the wheels
 /// skid (pushing, attached to a turning object) it follows the tracker within about 1 / gain
 /// ticks. Gain 1 passes the sensor's heading through unchanged.
 #[derive(Debug, Clone)]

@@ -21,8 +21,9 @@
 //! wrench everything else applied to the body in the last step (its change of momentum minus the
 //! joint's impulse), predict its twist at the end of this step without the joint. If the wrench
 //! that brings it to its target (rest, or the commanded velocity) lies inside the limit set, the
-//! body sticks: the caps are a box around that wrench reaching the limit set along each axis, so
-//! the solver holds it. Otherwise it slips with the maximally dissipative wrench (for objects the
+//! body sticks: the caps are a box around that wrench reaching the limit set along each axis (for
+//! an object, the ellipsoid through the limit set's largest force and torque), so the solver
+//! holds it. Otherwise it slips with the maximally dissipative wrench (for objects the
 //! minimiser of a convex problem in the three twist components, solved by Newton's method; for
 //! wheels the drive force along the slip): the joint frame is turned to the slip and the caps
 //! set to the wrench's components. The approximation is the one-step lag of the other bodies'
@@ -323,7 +324,8 @@ impl FixtureGrid {
 /// Most cells of the neighbour grid, whatever the arena.
 const MAX_CELLS: usize = 1 << 22;
 
-/// Side of a neighbour-index cell (m): about a Khepera's proximity reach.
+/// Side of a neighbour-index cell (m): about 1.6 times a Khepera IV's proximity reach (0.19 m
+/// from its centre).
 const CELL_M: f32 = 0.3;
 
 /// How one axis of a floor joint acts during a step.
@@ -678,7 +680,8 @@ impl Physics {
     }
 
     /// Adds an object. Movable objects rub on the floor with Coulomb friction `floor_mu * m * g`
-    /// and the ellipsoidal limit surface of their footprint (see the module documentation).
+    /// spread over their footprint, sampled at points (the exact limit surface, see the module
+    /// documentation).
     /// Their mass is spread evenly over the shape; `overlap`, the moments of the shape's union
     /// where its parts overlap ([`crate::geometry::overlap_moments`]), keeps the overlap from
     /// counting twice.
@@ -1351,7 +1354,7 @@ impl Physics {
     }
 
     /// Colliders within the square of half-side `radius` around `center` (walls and objects
-    /// by bounding box, robots by position), appended to `out` after clearing it. Uses the
+    /// by bounding box, robots by their disc's box), appended to `out` after clearing it. Uses the
     /// index from the last [`Physics::rebuild_index`]. Walls and objects come first, then robots
     /// in robot order, whatever the grid.
     pub fn nearby(&self, center: Vec2, radius: f32, out: &mut Vec<Nearby>) {

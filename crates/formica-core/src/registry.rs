@@ -186,6 +186,7 @@ fn check_model(m: &RobotModel) -> Result<(), String> {
         ("proximity_height", m.proximity_height),
         ("light_height", m.light_height),
         ("camera_height", m.camera_height),
+        ("led_height", m.led_height),
     ];
     for (what, v) in heights {
         if !(v >= 0.0 && v.is_finite()) {
@@ -456,6 +457,12 @@ mod tests {
         };
         let e = r.model("nan-bot", model).unwrap_err().to_string();
         assert!(e.contains("`radius` must be a positive number"), "{e}");
+        let model = RobotModel {
+            led_height: -0.1,
+            ..RobotModel::epuck()
+        };
+        let e = r.model("sunk-leds", model).unwrap_err().to_string();
+        assert!(e.contains("`led_height` must be zero or more"), "{e}");
         assert!(r.model_names().is_empty());
     }
 

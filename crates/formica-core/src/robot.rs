@@ -1,7 +1,8 @@
 //! Robot models (body, drive and sensor layouts) and the built-in ones: Khepera IV, foot-bot,
 //! e-puck.
 //!
-//! Figures come from ARGoS 3 and its Khepera IV plugin (see `shared/reference/robots.md`).
+//! Figures come from ARGoS 3's models of these robots (its Khepera IV plugin, the foot-bot and
+//! the e-puck) and the robots' published specifications.
 
 use crate::ops;
 use crate::registry::{Registry, RegistryError};

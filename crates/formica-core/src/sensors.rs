@@ -10,7 +10,8 @@
 //!   other robots in range, unless a body taller than the line of sight hides them (see
 //!   [`sight_blocked`]), and of lights that have a colour (a coloured goal region). No object
 //!   bodies, no identity. `camera = "oracle"` (an ablation) adds
-//!   every coloured body with the exact distance to its surface.
+//!   every coloured body, with the distance to its surface (the camera's noise on it) instead
+//!   of to an LED.
 //! - Colour scan, as Queiroz and MacRae's panoramic cameras: a ring of bearing bins, each the
 //!   colour of the first body its ray meets (object colour, LED colour, black for an unlit
 //!   robot, grey for a wall, [`Color::Off`] for nothing) and a coarse, noisy range.
@@ -19,7 +20,8 @@
 //! light (clamped to [0, 1]), additive on positions and bearings, relative on distances.
 //!
 //! Every reading is a fixed-size vector per robot (sizes in [`SensorLayout`]), except the
-//! camera's blobs, a list of at most [`MAX_BLOBS`], nearest first, so that a binding can hand
+//! camera's blobs, a list of at most [`MAX_BLOBS`] robots' LEDs, nearest first, then the
+//! coloured lights in sight, so that a binding can hand
 //! them out as flat arrays `[robots, sensors]`.
 
 use crate::geometry::{wrap_angle, Pose, Vec2};

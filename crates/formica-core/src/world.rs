@@ -163,8 +163,8 @@ pub fn sensor_warning(g: &Group) -> Option<String> {
     let mut w = Vec::new();
     if g.sensors.camera == CameraKind::Oracle && g.needs().camera {
         w.push(
-            "camera = \"oracle\": the camera sees object bodies and exact distances, which no \
-             real colour-blob camera does (an ablation; the default is \"blob\")",
+            "camera = \"oracle\": the camera sees object bodies and distances to their surfaces, \
+             which no real colour-blob camera does (an ablation; the default is \"blob\")",
         );
     }
     if g.sensors.preset == crate::noise::NoisePreset::None {
