@@ -7,7 +7,8 @@
    one thread, 600 ticks per seed): the `occlusion` port of examples/python/occlusion.py
    against the built-in `occlusion`, and a do-nothing Python controller against the built-in
    `constant` (the bare cost of calling Python once per robot and tick).
-2. Batched Python control at N = 1000 on the `formica bench` world: one numpy function per
+2. Batched Python control at N = 1000 on the random-walk world of `formica bench`'s earlier
+   figures (`formica.bench_scenario`): one numpy function per
    tick decides for all robots, against the built-in `random-walk` in Rust.
 3. The PettingZoo environment at 20 robots (steps per second with given actions), and the
    vectorised form with 64 worlds (vector steps and robot-steps per second).
@@ -82,9 +83,9 @@ def per_robot(controller: str, seeds, ticks: int) -> float:
 
 
 def batched(controller: str, robots: int, ticks: int) -> float:
-    """Robot-ticks per second of `controller` on the `formica bench` world of `robots`."""
+    """Robot-ticks per second of `controller` on the random-walk bench world of `robots`."""
     w = formica.World(formica.bench_scenario(robots, controller))
-    w.step(5)  # warm up, as `formica bench` does
+    w.step(5)  # warm up
     t0 = time.perf_counter()
     w.step(ticks)
     return robots * ticks / (time.perf_counter() - t0)

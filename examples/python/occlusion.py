@@ -5,7 +5,8 @@ crates/formica-core/src/controllers/occlusion.rs: each robot approaches the obje
 its centre, which the beacon gives), circles it with the left-hand rule watching the goal light,
 and pushes along the surface normal (biased toward where it triangulated the goal) while the
 object hides the goal; time-outs free stuck robots. Only the beacon perception is ported (the
-scenario's default); the arithmetic is in float64 where Rust uses f32, so single runs differ
+scenario's default), and not the pushers' spreading over the hidden side (results format 11),
+so it is Chen's rule with the goal bias; the arithmetic is in float64 where Rust uses f32, so single runs differ
 while success rates compare.
 
     python examples/python/occlusion.py                 # seeds 1..20, Python and Rust side by side
@@ -109,7 +110,10 @@ LED = {"push": "red", "circle": "blue", "escape": "yellow", "search": "white", "
 
 
 class Occlusion:
-    """The occlusion controller; parameters and defaults as the Rust one's (beacon only)."""
+    """The occlusion controller's core (beacon only): the parameters it has take the Rust one's
+    defaults. Not ported: spreading pushers over the hidden side (it pushes where it first finds
+    the goal hidden, as Rust's `spread_s = 0`), `circle_side`, the light thresholds
+    `lit_contrast` / `dark_contrast`, sliding, and the near-wall options."""
 
     needs = ("proximity", "light", "beacon")
 

@@ -314,8 +314,9 @@ def register_batched(name: str, fn: Optional[Callable] = None, *, needs: Optiona
     ``fn(readings)`` gets a float32 array ``[N, L]`` (one row per released robot, in world
     order; columns named by ``Layout.names``) and returns wheel speeds ``[N, 2]`` (m/s), or a
     tuple ``(wheels, leds, attach)`` with LED codes ``[N]`` and attach codes ``[N]`` (-1, 0, 1),
-    either of them None. LEDs left out (None, or wheels alone) keep each robot's last colour,
-    as ``World.set_actions`` does; a per-robot controller's left-out LED is off. A function with a second positional parameter also gets a
+    either of them None. LEDs left out (None, or wheels alone) keep each robot's last colour
+    (``World.set_actions`` without ``leds`` turns them off; so does a per-robot controller that
+    leaves its LED out). A function with a second positional parameter also gets a
     :class:`Batch`: the rows' robot indices, their own generators (``batch.rng``), the layout
     and the time. The group's ``params`` come as keyword arguments. A class instead of a
     function is made once per group and world as ``cls(layout, **params)``, and its

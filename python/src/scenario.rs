@@ -290,8 +290,9 @@ pub fn parse(py: Python<'_>, text: String, file: String) -> PyResult<PyScenario>
     guard(|| PyScenario::make(file, text, Vec::new()).map_err(|e| scenario_error(py, &e)))
 }
 
-/// The standard benchmark world of `formica bench`: `robots` Khepera IVs running
-/// `controller` in an arena scaled to about 0.8 m^2 per robot.
+/// The random-walk benchmark world of `formica bench`'s earlier figures (before its
+/// `transport` workload): `robots` Khepera IVs running `controller` in an arena scaled to
+/// about 0.8 m^2 per robot.
 #[pyfunction]
 #[pyo3(signature = (robots, controller = "random-walk".to_string()))]
 pub fn bench_scenario(py: Python<'_>, robots: usize, controller: String) -> PyResult<PyScenario> {

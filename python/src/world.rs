@@ -692,7 +692,8 @@ impl PyWorld {
         PyArray1::from_vec(py, v).reshape([w.objects.len(), 2])
     }
 
-    /// Index of the object whose transport is measured (the first movable one), or None.
+    /// Index of the object whose transport is measured (the first movable one; object 0 if
+    /// none moves), or None without objects.
     #[getter]
     fn target(&self) -> PyResult<Option<usize>> {
         Ok(self.sim()?.run.world.target)
