@@ -50,6 +50,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
             )));
         }
     }
+    // Every input must open as a result store before the output is created (a text file given
+    // as an input left an empty output store behind).
+    for p in &a.inputs {
+        Store::open_existing(p)?;
+    }
     if let Some(file) = &a.sweep {
         return into_sweep(&a, file);
     }

@@ -84,6 +84,20 @@ fn record_and_report_never_write_over_the_store_they_read() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
+    // `merge` with an input that is no store leaves no output store behind.
+    let text = dir.join("text.db");
+    std::fs::write(&text, "hello\n").unwrap();
+    let merged = dir.join("merged.db");
+    let _ = std::fs::remove_file(&merged);
+    let out = formica()
+        .arg("merge")
+        .arg(&merged)
+        .arg(&db)
+        .arg(&text)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!merged.exists());
     // `--trial` without `--db` is refused, not ignored.
     let out = formica()
         .arg("run")
