@@ -197,7 +197,10 @@ fn attached<T>(
 ) -> Result<T, CliError> {
     store
         .conn
-        .execute("ATTACH DATABASE ?1 AS src", [p.display().to_string()])
+        .execute(
+            "ATTACH DATABASE ?1 AS src",
+            [crate::store::plain_name(p).display().to_string()],
+        )
         .with_context(|| format!("opening {}", p.display()))?;
     let result = f(store);
     store

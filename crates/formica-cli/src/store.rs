@@ -173,7 +173,8 @@ impl Store {
                     .with_context(|| format!("creating {}", dir.display()))?;
             }
         }
-        let conn = Connection::open(path).with_context(|| format!("opening {}", path.display()))?;
+        let conn = Connection::open(plain_name(path))
+            .with_context(|| format!("opening {}", path.display()))?;
         conn.busy_timeout(std::time::Duration::from_secs(30))
             .with_context(|| format!("{}: setting the busy timeout", path.display()))?;
         // The first statement that reads the file: one that is not SQLite fails here, and
@@ -826,6 +827,16 @@ pub struct StoredTrial {
     pub params_json: String,
     /// The metrics (`wall_time_s` as measured).
     pub result: RunResult,
+}
+
+/// `path` as SQLite takes it for that file: a relative name beginning `file:` gets `./` in
+/// front, which SQLite would otherwise read as a URI naming another file.
+pub fn plain_name(path: &Path) -> PathBuf {
+    if path.to_string_lossy().starts_with("file:") {
+        Path::new(".").join(path)
+    } else {
+        path.to_path_buf()
+    }
 }
 
 /// A store's file, to put before what failed in an error message.

@@ -98,6 +98,20 @@ fn record_and_report_never_write_over_the_store_they_read() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(!merged.exists());
+    // A store whose name begins `file:` is that file, not an SQLite URI naming another.
+    let odd = dir.join("file:odd.db");
+    std::fs::copy(&db, &odd).unwrap();
+    let _ = std::fs::remove_file(&merged);
+    let out = formica()
+        .current_dir(&dir)
+        .arg("merge")
+        .arg("merged.db")
+        .arg("file:odd.db")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("24 new"));
+    assert!(!dir.join("odd.db").exists());
     // `--trial` without `--db` is refused, not ignored.
     let out = formica()
         .arg("run")
