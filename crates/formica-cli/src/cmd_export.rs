@@ -127,8 +127,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     if let Some(tp) = &a.trajectories {
         let same = tp == &a.csv
-            || (crate::resolve_path(tp).is_some()
-                && crate::resolve_path(tp) == crate::resolve_path(&a.csv));
+            || matches!(
+                (crate::resolve_path(tp), crate::resolve_path(&a.csv)),
+                (Some(t), Some(c)) if t == c
+            );
         if same {
             return Err(CliError::Input(format!(
                 "--trajectories {}: the same file as --csv; give each its own",

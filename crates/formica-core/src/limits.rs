@@ -11,7 +11,7 @@ use std::ops::Range;
 use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
-/// Largest scenario file (bytes).
+/// Largest scenario or sweep file (bytes).
 pub const MAX_FILE_BYTES: usize = 64 << 20;
 /// Reads a text file of at most [`MAX_FILE_BYTES`], without reading more than one byte past
 /// that: a larger file, or an endless one (`/dev/zero`), is refused once the limit is passed

@@ -532,35 +532,40 @@ pub fn pack_discs(
     best
 }
 
-/// Attached robots of object `obj` whose discs lie in its cavity (inside the hull, by the test
-/// [`disc_in_cavity`] that `cavity_capacity` packs with), and those outside its hull (false
-/// stops): more than half outside, their centre beyond the hull by more than half their
-/// radius. A robot touching the outside of the hull (the seed's false stop against a U's back
-/// wall) is one; a robot astride the mouth of a cavity is neither.
-pub fn classify_attached(world: &World, obj: usize) -> (usize, usize) {
-    let hull = object_hull(world, obj);
-    let (mut inside, mut outside) = (0, 0);
-    for (c, r) in attached_discs(world, obj) {
-        if disc_in_cavity(world, obj, &hull, c, r) {
-            inside += 1;
-        } else if inside_depth(&hull, c) < -0.5 * r {
-            outside += 1;
-        }
-    }
-    (inside, outside)
+/// Where the attached robots of an object lie against its cavity.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AttachedPlaces {
+    /// Robots whose discs lie in the cavity (inside the hull, by the test [`disc_in_cavity`]
+    /// that `cavity_capacity` packs with): `cavity_robots`.
+    pub inside: usize,
+    /// Robots whose centre lies in the cavity (inside the hull, outside the object):
+    /// `cavity_centres`, `cavity_robots` as issue 11 first defined it. A robot astride the
+    /// cavity's mouth counts, so this can exceed `cavity_capacity`.
+    pub centred: usize,
+    /// Robots outside the hull (false stops): more than half outside, their centre beyond the
+    /// hull by more than half their radius. A robot touching the outside of the hull (the
+    /// seed's false stop against a U's back wall) is one; a robot astride the mouth of a
+    /// cavity is not.
+    pub outside: usize,
 }
 
-/// Attached robots of object `obj` whose centre lies in its cavity: inside the object's hull
-/// and outside the object. This is `cavity_robots` as issue 11 first defined it; a robot
-/// astride the cavity's mouth counts, so the count can exceed `cavity_capacity`, which counts
-/// discs lying wholly inside (as `cavity_robots` does, [`classify_attached`]).
-pub fn centred_in_cavity(world: &World, obj: usize) -> usize {
+/// Counts the attached robots of object `obj` by where they lie (see [`AttachedPlaces`]).
+pub fn classify_attached(world: &World, obj: usize) -> AttachedPlaces {
     let hull = object_hull(world, obj);
     let body = world.objects[obj].body;
-    attached_discs(world, obj)
-        .into_iter()
-        .filter(|(c, _)| inside_depth(&hull, *c) > 0.0 && !world.physics.contains(body, *c))
-        .count()
+    let mut out = AttachedPlaces::default();
+    for (c, r) in attached_discs(world, obj) {
+        let depth = inside_depth(&hull, c);
+        if depth > 0.0 && !world.physics.contains(body, c) {
+            out.centred += 1;
+        }
+        if disc_in_cavity(world, obj, &hull, c, r) {
+            out.inside += 1;
+        } else if depth < -0.5 * r {
+            out.outside += 1;
+        }
+    }
+    out
 }
 
 /// Filling metrics and the `on_filled` stop rule.
@@ -634,13 +639,13 @@ impl LoopFunctions for FillHooks {
         r.convexity_before = self.before;
         r.convexity_after = Some(after.convexity());
         r.cavity_filled = Some(after.cavity_filled());
-        let (inside, outside) = classify_attached(world, t);
+        let places = classify_attached(world, t);
         r.cavity_capacity = self.capacity;
-        r.cavity_robots = Some(inside);
-        r.false_stops = Some(outside);
+        r.cavity_robots = Some(places.inside);
+        r.false_stops = Some(places.outside);
         r.extra.insert(
             "cavity_centres".into(),
-            serde_json::Value::from(centred_in_cavity(world, t)),
+            serde_json::Value::from(places.centred),
         );
     }
 }

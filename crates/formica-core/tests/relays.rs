@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{shipped, shipped_text, start};
+use common::{shipped, shipped_text, shipped_with, start};
 use formica::geometry::Vec2;
 use formica::visibility::crosses;
 use formica::Scenario;
@@ -223,15 +223,9 @@ fn no_relay_forms_in_the_open_map() {
 
 #[test]
 fn relays_are_off_by_default() {
-    // The middle map without its `params = { relays = true }`, `occlusion`'s defaults: no
+    // The middle map with `occlusion`'s default parameters instead of its `relays = true`: no
     // relay forms.
-    let shipped = shipped_text("qm-middle.toml");
-    let text = shipped.replace("params = { relays = true }", "");
-    assert_ne!(
-        text, shipped,
-        "the map no longer sets relays as this test expects"
-    );
-    let sc = Scenario::parse(&text, "qm-middle.toml").unwrap();
+    let sc = shipped_with("qm-middle.toml", &[("robots.0.params", "{}")]);
     let (eps, _) = episodes(&sc, 1, 120.0);
     assert!(eps.is_empty());
 }
@@ -239,13 +233,7 @@ fn relays_are_off_by_default() {
 #[test]
 fn a_moving_goal_follows_its_schedule() {
     // No stop rule: the run lasts past the schedule's middle whatever the robots do.
-    let shipped = shipped_text("qm-moving-goal.toml");
-    let text = shipped.replace("on_goal = true", "on_goal = false");
-    assert_ne!(
-        text, shipped,
-        "the scenario no longer stops on the goal as expected"
-    );
-    let sc = Scenario::parse(&text, "qm-moving-goal.toml").unwrap();
+    let sc = shipped_with("qm-moving-goal.toml", &[("stop.on_goal", "false")]);
     let mut run = start(&sc, 1);
     let g0 = run.world.goal().unwrap();
     assert_eq!((g0.x, g0.y), (1.0, 1.0));
