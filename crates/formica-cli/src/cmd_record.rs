@@ -182,10 +182,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
             )));
         }
         outln!(
-            "trial {} (seed {}) ends as stored: {}",
+            "trial {} (seed {}) ends as stored: {}{}",
             r.trial,
             r.seed,
-            r.stored_outcome()
+            r.stored_outcome(),
+            r.not_compared(&run.result())
         );
     }
     Ok(())

@@ -326,10 +326,11 @@ fn run_one(
     if let Some((r, diffs)) = &check {
         let line = if diffs.is_empty() {
             format!(
-                "replay of trial {} (seed {}) ends as stored: {}",
+                "replay of trial {} (seed {}) ends as stored: {}{}",
                 r.trial,
                 r.seed,
-                r.stored_outcome()
+                r.stored_outcome(),
+                r.not_compared(&result)
             )
         } else {
             format!(
@@ -445,10 +446,11 @@ fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
         }
         let line = if diffs.is_empty() {
             format!(
-                "trial {} (seed {}): ends as stored, {}",
+                "trial {} (seed {}): ends as stored, {}{}",
                 r.trial,
                 r.seed,
-                r.stored_outcome()
+                r.stored_outcome(),
+                r.not_compared(&res)
             )
         } else {
             differ += 1;

@@ -63,6 +63,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 label: label.clone(),
                 seed: r.seed,
                 stored: r.stored.result.clone(),
+                columns: r.columns.clone(),
                 params,
             };
             (r.scenario, Some(r.seed), Some(info), label)

@@ -12,6 +12,7 @@ use crate::store::{Store, StoredTrial};
 use crate::sweep::Sweep;
 use crate::CliError;
 use formica::{Overrides, RunResult, Scenario};
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 /// One stored trial, ready to run again.
@@ -24,6 +25,8 @@ pub struct Replay {
     pub seed: u64,
     /// What the store holds for it.
     pub stored: StoredTrial,
+    /// The store's columns of end-of-run fields (loop functions' `extra`).
+    pub columns: BTreeSet<String>,
 }
 
 impl Replay {
@@ -37,8 +40,22 @@ impl Replay {
 
     /// How `got` differs from the stored result (every field but the wall-clock time, as
     /// `field: stored, replayed`); empty when the replay reproduced it.
+    /// End-of-run fields the store has no column for (added after it was written) are left
+    /// out; [`Replay::not_compared`] names them.
     pub fn differences(&self, got: &RunResult) -> Vec<String> {
-        formica::experiment::result_differences(&self.stored.result, got)
+        formica::experiment::replay_differences(&self.stored.result, got, &self.columns).0
+    }
+
+    /// `got`'s end-of-run fields that the store cannot hold, so a replay does not compare them:
+    /// ` (not in the store, not compared: cavity_centres)`, or empty.
+    pub fn not_compared(&self, got: &RunResult) -> String {
+        let (_, unstored) =
+            formica::experiment::replay_differences(&self.stored.result, got, &self.columns);
+        if unstored.is_empty() {
+            String::new()
+        } else {
+            format!(" (not in the store, not compared: {})", unstored.join(", "))
+        }
     }
 
     /// `wall after 83.4 s (834 ticks)`: the stored outcome, for messages.
@@ -115,6 +132,7 @@ impl Replayer {
             seed: stored.result.seed,
             scenario,
             stored,
+            columns: self.store.extra_columns()?.into_iter().collect(),
         })
     }
 

@@ -527,3 +527,55 @@ fn stores_from_before_scenarios_were_kept_replay_from_their_sweep_file() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("has changed since the store was made"));
 }
+
+#[test]
+fn a_store_without_a_later_field_still_replays_and_says_what_it_left_out() {
+    let dir = tmp("later-field");
+    let sweep = dir.join("fill.toml");
+    std::fs::write(
+        &sweep,
+        format!(
+            "name = \"fill\"\nscenario = {:?}\nseeds = \"1..2\"\nduration_s = 20\n",
+            repo("scenarios/seed-fill-u.toml").display().to_string()
+        ),
+    )
+    .unwrap();
+    let db = dir.join("fill.db");
+    let _ = std::fs::remove_file(&db);
+    ok(formica()
+        .arg("sweep")
+        .arg(&sweep)
+        .arg("--db")
+        .arg(&db)
+        .arg("--quiet")
+        .output()
+        .unwrap());
+    let replay = |trial: &str| {
+        formica()
+            .args(["run", "--trial", trial, "--db"])
+            .arg(&db)
+            .output()
+            .unwrap()
+    };
+    // A store written before `cavity_centres` existed has no column for it: the replay
+    // compares everything else, and says what it did not compare.
+    conn(&db)
+        .execute("ALTER TABLE trials DROP COLUMN cavity_centres", [])
+        .unwrap();
+    let o = replay("0");
+    assert_eq!(o.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("ends as stored"), "{text}");
+    assert!(
+        text.contains("not in the store, not compared: cavity_centres"),
+        "{text}"
+    );
+    // A field the store has a column for but no value is a difference.
+    conn(&db)
+        .execute("ALTER TABLE trials ADD COLUMN cavity_centres REAL", [])
+        .unwrap();
+    let o = replay("1");
+    assert_eq!(o.status.code(), Some(1));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("cavity_centres: none"), "{text}");
+}

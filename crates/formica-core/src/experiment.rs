@@ -237,6 +237,27 @@ pub fn result_differences(a: &RunResult, b: &RunResult) -> Vec<String> {
         .collect()
 }
 
+/// [`result_differences`] for the replay `got` of a stored trial, leaving out `got`'s end-of-run
+/// fields that the store has no column for (`columns`): fields added to the results after the
+/// store was written, which it could not hold. Also returns those fields' names.
+pub fn replay_differences(
+    stored: &RunResult,
+    got: &RunResult,
+    columns: &std::collections::BTreeSet<String>,
+) -> (Vec<String>, Vec<String>) {
+    let mut got = got.clone();
+    let unstored: Vec<String> = got
+        .extra
+        .keys()
+        .filter(|k| !columns.contains(*k) && !stored.extra.contains_key(*k))
+        .cloned()
+        .collect();
+    for k in &unstored {
+        got.extra.remove(k);
+    }
+    (result_differences(stored, &got), unstored)
+}
+
 /// One recorded sample of a trajectory.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Sample {

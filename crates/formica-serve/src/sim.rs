@@ -42,6 +42,9 @@ pub struct ReplayInfo {
     pub seed: u64,
     /// The stored result.
     pub stored: RunResult,
+    /// The store's columns of end-of-run fields: the replay's fields without one (added after
+    /// the store was written) are not compared.
+    pub columns: std::collections::BTreeSet<String>,
     /// Its parameters, as `(key, value)` to show.
     pub params: Vec<(String, String)>,
 }
@@ -607,7 +610,7 @@ impl Sim {
                 let active = r.seed == self.seed;
                 let ended = self.run.outcome().is_some();
                 let differences = if active && ended {
-                    formica::experiment::result_differences(&r.stored, &result)
+                    formica::experiment::replay_differences(&r.stored, &result, &r.columns).0
                 } else {
                     Vec::new()
                 };

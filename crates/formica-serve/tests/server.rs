@@ -616,6 +616,7 @@ fn a_replay_is_checked_against_its_stored_result() {
                 label: "trial 7 of test.db".into(),
                 seed: 4,
                 stored: stored.clone(),
+                columns: stored.extra.keys().cloned().collect(),
                 params: vec![("robots.0.count".into(), "3".into())],
             });
         });
