@@ -28,6 +28,36 @@ pub fn err_line(args: std::fmt::Arguments) {
 
 static CLOSED: AtomicBool = AtomicBool::new(false);
 
+/// Why stdout failed, when it was not the reader going away (a full disk): the command's
+/// output is then incomplete, and it must not exit 0.
+static FAILED: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+/// Forgets an earlier command's closed or failed stdout (commands run in one process from
+/// Python).
+pub fn reset() {
+    CLOSED.store(false, Ordering::Relaxed);
+    *FAILED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner) = None;
+}
+
+/// Why stdout failed, other than a closed pipe, if it did.
+pub fn failure() -> Option<String> {
+    FAILED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .clone()
+}
+
+fn fail(e: &std::io::Error) {
+    let mut f = FAILED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if f.is_none() {
+        *f = Some(e.to_string());
+    }
+}
+
 /// Writes one line to stdout, unless the reader has gone.
 pub fn line(args: std::fmt::Arguments) {
     if CLOSED.load(Ordering::Relaxed) {
@@ -41,6 +71,7 @@ pub fn line(args: std::fmt::Arguments) {
     if let Err(e) = written {
         if e.kind() != std::io::ErrorKind::BrokenPipe {
             errln!("warning: writing to stdout: {e}; further output dropped");
+            fail(&e);
         }
         CLOSED.store(true, Ordering::Relaxed);
     }
@@ -61,6 +92,10 @@ impl Stdout {
             Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
                 CLOSED.store(true, Ordering::Relaxed);
                 Ok(ok)
+            }
+            Err(e) => {
+                fail(&e);
+                Err(e)
             }
             r => r,
         }

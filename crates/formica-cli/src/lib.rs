@@ -417,6 +417,7 @@ where
 }
 
 fn dispatch(cli: Cli) -> Result<(), CommandError> {
+    console::reset();
     let r = match cli.command {
         Command::Run(a) => cmd_run::main(a),
         Command::Check(a) => cmd_check::main(a),
@@ -437,7 +438,16 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
             message: format!("{e:#}"),
         },
         CliError::Interrupted(message) => CommandError { code: 130, message },
-    })
+    })?;
+    // Output lost to a failed stdout (not a reader that went away) is a failure, even when the
+    // command's own work succeeded.
+    match console::failure() {
+        Some(e) => Err(CommandError {
+            code: 1,
+            message: format!("writing to stdout: {e}; the output is incomplete"),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Cores this process may use (1 when unknown).

@@ -1057,6 +1057,24 @@ fn export_to_a_closed_pipe_ends_quietly() {
     );
 }
 
+#[cfg(target_os = "linux")]
+#[test]
+fn output_lost_to_a_full_disk_is_a_failure() {
+    // `formica run ... --json > results.jsonl` on a full disk used to warn and exit 0, leaving
+    // a short file that looked complete. A closed pipe (above) still ends quietly.
+    let full = std::fs::File::create("/dev/full").unwrap();
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--seeds", "1..2", "--duration", "1", "--json"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("the output is incomplete"), "{err}");
+}
+
 #[test]
 fn a_store_without_trials_takes_the_mended_sweep() {
     // A sweep stopped before its first trial ended (here `--limit 0`), its [set] then mended:
