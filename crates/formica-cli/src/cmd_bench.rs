@@ -284,7 +284,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         } else {
             let pct = |x: f64| 100.0 * x / line.wall_s.max(1e-12);
             outln!(
-                "{} N = {:>6}, {} thread{}: {:>10.0} robot-ticks/s ({:.3} us per robot-tick; physics {:.0} %, sensing {:.0} %, control {:.0} %; {} ticks in {} trials, {:.2} physics steps per tick, {:.0} % of objects moved), {} KiB per robot",
+                "{} N = {:>6}, {} thread{}: {:>10.0} robot-ticks/s ({:.3} us per robot-tick; physics {:.0} %, sensing {:.0} %, control {:.0} %; {} ticks in {} trials, {:.2} physics steps per tick, {:.0} % of objects moved), {} KiB per robot, digest {}",
                 line.workload,
                 n,
                 line.threads,
@@ -299,7 +299,8 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 line.substeps_per_tick,
                 100.0 * line.objects_moved,
                 line.memory_per_robot_kib
-                    .map_or("?".into(), |m| format!("{m:.2}"))
+                    .map_or("?".into(), |m| format!("{m:.2}")),
+                line.digest
             );
         }
     }

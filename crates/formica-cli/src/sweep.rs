@@ -165,8 +165,8 @@ fn flatten_vary(
             toml::Value::Table(inner) => flatten_vary(&key, inner, out)?,
             other => {
                 return Err(format!(
-                    "[vary] `{key}`: expected a list of values, found a {}",
-                    other.type_str()
+                    "[vary] `{key}`: expected a list of values, found {}",
+                    formica::scenario::a_toml_type(other)
                 ))
             }
         }
@@ -446,8 +446,8 @@ impl Sweep {
                 Some(toml::Value::String(s)) => s.clone(),
                 Some(other) => {
                     return Err(input(format!(
-                        "`scenario`: expected a file name, found a {}",
-                        other.type_str()
+                        "`scenario`: expected a file name, found {}",
+                        formica::scenario::a_toml_type(other)
                     )))
                 }
                 None => spec.scenario.clone().ok_or_else(|| {

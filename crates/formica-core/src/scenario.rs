@@ -1370,8 +1370,8 @@ impl Scenario {
                     }
                     other => {
                         return Err(format!(
-                        "`{so_far}` is a {}, not a table or an array: cannot set `{part}` in it",
-                        other.type_str()
+                        "`{so_far}` is {}, not a table or an array: cannot set `{part}` in it",
+                        a_toml_type(other)
                     ))
                     }
                 };
@@ -1858,6 +1858,20 @@ fn non_finite_literal(text: &str) -> Option<(usize, &str)> {
         i += 1;
     }
     None
+}
+
+
+/// A TOML value's type with its article, for messages: `an integer`, `a string`, `an array`.
+pub fn a_toml_type(v: &toml::Value) -> &'static str {
+    match v {
+        toml::Value::String(_) => "a string",
+        toml::Value::Integer(_) => "an integer",
+        toml::Value::Float(_) => "a float",
+        toml::Value::Boolean(_) => "a boolean",
+        toml::Value::Datetime(_) => "a datetime",
+        toml::Value::Array(_) => "an array",
+        toml::Value::Table(_) => "a table",
+    }
 }
 
 #[cfg(test)]
