@@ -106,10 +106,22 @@ def _as_scenario(scenario: Union[Scenario, PathLike]) -> Scenario:
 def _seed_list(seeds, scenario: Scenario) -> list:
     if seeds is None:
         return [scenario.seed]
-    if isinstance(seeds, int):
+    if isinstance(seeds, int) or hasattr(seeds, "__index__") and not hasattr(seeds, "__iter__"):
         seeds = [seeds]
+    if not hasattr(seeds, "__iter__"):
+        raise TypeError(f"seeds: expected a seed or an iterable of seeds, got {seeds!r}")
+    most = _formica._MAX_RUN_SEEDS
+    too_many = "seeds: at most {} seeds a call, got {} (as `formica run --seeds`; formica.sweep stores each trial as it ends and takes more)"
+    try:
+        n = len(seeds) if hasattr(seeds, "__len__") else 0
+    except OverflowError:  # range(10**20)
+        raise ValueError(too_many.format(most, "more")) from None
+    if n > most:
+        raise ValueError(too_many.format(most, n))
     out = []
     for s in seeds:
+        if len(out) == most:
+            raise ValueError(too_many.format(most, "more"))
         if isinstance(s, bool) or not isinstance(s, int) and not hasattr(s, "__index__"):
             raise TypeError(f"seeds: expected integers, got {s!r}")
         s = int(s)
@@ -276,8 +288,9 @@ def register_controller(name: str, cls: Optional[type] = None, *, needs: Optiona
     attach command (None / ``"keep"``, ``True`` / ``"attach"``, ``False`` / ``"detach"``), and
     ``coast`` (``True``: motors off, the wheel speeds ignored; the wheels roll along the heading
     and skid sideways). A
-    ``state`` attribute, if the instance has one, is its state name (a process keeps the
-    first 4,096 distinct names; later new ones read ``"other"``). ``needs`` (or a class
+    ``state`` str attribute, if the instance has one (set in ``__init__`` or any later
+    ``step``), is its state name after each step (a process keeps the first 4,096 distinct
+    names; later new ones read ``"other"``; a value that is not a str is not a state name). ``needs`` (or a class
     attribute ``needs``) lists the sensors it reads, from ``proximity``, ``light``, ``beacon``
     and ``camera``; default: all but the camera.
 

@@ -10,6 +10,7 @@ _Path = Union[str, os.PathLike[str]]
 _ScenarioLike = Union["Scenario", _Path]
 
 COLORS: list[str]
+_MAX_RUN_SEEDS: int
 
 class ScenarioError(ValueError):
     file: Optional[str]

@@ -271,6 +271,8 @@ class TransportParallelEnv(ParallelEnv):
 
     def state(self) -> np.ndarray:
         """Global state: every robot's pose, then every object's, flattened (float32)."""
+        if self.world is None:
+            raise RuntimeError("call reset() first")
         return np.concatenate([self.world.robot_poses.ravel(), self.world.object_poses.ravel()])
 
     def render(self):
@@ -306,6 +308,7 @@ class TransportGymEnv(gymnasium.Env):
         self.world: Optional[formica.World] = None
         self._dist = math.nan
         self._steps = 0
+        self._ended = False
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
@@ -314,11 +317,13 @@ class TransportGymEnv(gymnasium.Env):
         self.world.step(1)
         self._dist = self.world.goal_distance
         self._steps = 0
+        self._ended = False
         return self.world.readings(), {"seed": s}
 
     def step(self, action):
-        if self.world is None:
-            raise RuntimeError("call reset() first")
+        if self.world is None or self._ended:
+            # Stepping on would pay the ending's reward again (a success every step).
+            raise RuntimeError("call reset() first (and again after the episode ended)")
         t = self._task
         a = np.asarray(action, dtype=np.float32)
         if a.shape != (t.n, 2):
@@ -334,6 +339,7 @@ class TransportGymEnv(gymnasium.Env):
             outcome == "timeout" or (t.max_steps is not None and self._steps >= t.max_steps)
         )
         info = {"outcome": outcome, "goal_distance": dist, "tick": self.world.tick}
+        self._ended = terminated or truncated
         return self.world.readings(), reward, terminated, truncated, info
 
 

@@ -692,7 +692,9 @@ impl RobotAdapter {
             .call_method1(intern!(py, "step"), (readings,));
         std::mem::swap(&mut self.rng.bind(py).borrow_mut().inner, rng);
         let action = action_of(&out?, &self.who)?;
-        if self.read_state {
+        // A `state` first set in a later `step` counts from then on.
+        if self.read_state || self.obj.bind(py).hasattr(intern!(py, "state"))? {
+            self.read_state = true;
             let s = self.obj.bind(py).getattr(intern!(py, "state"))?;
             if let Ok(s) = s.cast::<PyString>() {
                 let s = s.to_str()?;
@@ -988,12 +990,20 @@ pub(crate) fn codes_of(
 ) -> PyResult<Vec<i64>> {
     // Read as float64 and checked, so that 1.7 or NaN is refused rather than cast to 1 or
     // to i64::MIN (as numpy's integer cast would).
-    let arr: PyArrayLike1<'_, f64, AllowTypeChange> =
-        numbers(v, who, what)?.extract().map_err(|_| {
-            PyValueError::new_err(format!(
-                "{who}: {what} must be an integer array of shape ({n},)"
-            ))
-        })?;
+    let nums = numbers(v, who, what)?;
+    let kind: String = nums.getattr("dtype")?.getattr("kind")?.extract()?;
+    if kind == "b" {
+        // True / False would read 1 / 0, where a per-robot controller's False detaches.
+        return Err(PyValueError::new_err(format!(
+            "{who}: {what} must be integer codes, got booleans (attach: -1 detach, 0 keep, 1 \
+             attach; leds: indices into formica.COLORS)"
+        )));
+    }
+    let arr: PyArrayLike1<'_, f64, AllowTypeChange> = nums.extract().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{who}: {what} must be an integer array of shape ({n},)"
+        ))
+    })?;
     let a = arr.as_array();
     if a.len() != n {
         return Err(PyValueError::new_err(format!(

@@ -172,6 +172,7 @@ fn _formica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", py.get_type::<ScenarioError>())?;
     m.add("PanicError", py.get_type::<PanicError>())?;
     m.add("COLORS", world::color_names())?;
+    m.add("_MAX_RUN_SEEDS", formica::limits::MAX_RUN_SEEDS)?;
     m.add_class::<scenario::PyScenario>()?;
     m.add_class::<world::PyWorld>()?;
     m.add_class::<world::PyWorlds>()?;

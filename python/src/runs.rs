@@ -50,8 +50,11 @@ pub fn run_seeds(
             record: false,
         };
         b.check(&sc)?;
-        if threads == Some(0) {
-            return Err(PyValueError::new_err("threads: expected at least 1"));
+        let most = formica_cli::MAX_THREADS;
+        if let Some(t) = threads.filter(|t| !(1..=most).contains(t)) {
+            return Err(PyValueError::new_err(format!(
+                "threads: expected 1 to {most}, got {t} (leave it out to use every core)"
+            )));
         }
         let max = formica::limits::MAX_RUN_SEEDS;
         if seeds.len() as u64 > max {

@@ -27,12 +27,27 @@ fn parse_all(
 
 /// A Python value as a TOML value: bool, int, float, str, lists / tuples and dicts of them
 /// (numpy scalars and arrays too).
+/// `v` as a scenario value: nested at most [`formica::limits::MAX_NESTING`] deep (a list that
+/// holds itself is refused, not followed until the stack runs out).
 fn py_to_toml(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    to_toml(v, 0)
+}
+
+fn to_toml(v: &Bound<'_, PyAny>, depth: usize) -> PyResult<toml::Value> {
+    if depth > formica::limits::MAX_NESTING {
+        return Err(PyValueError::new_err(format!(
+            "a scenario value nests lists and dicts at most {} deep (does a list hold itself?)",
+            formica::limits::MAX_NESTING
+        )));
+    }
     if let Ok(b) = v.cast::<PyBool>() {
         return Ok(toml::Value::Boolean(b.is_true()));
     }
     if v.is_instance_of::<PyInt>() {
-        return Ok(toml::Value::Integer(v.extract()?));
+        return v
+            .extract()
+            .map(toml::Value::Integer)
+            .map_err(|_| PyValueError::new_err(format!("{v} does not fit in a 64-bit integer")));
     }
     if v.is_instance_of::<PyFloat>() {
         return Ok(toml::Value::Float(v.extract()?));
@@ -46,17 +61,19 @@ fn py_to_toml(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
             let key: String = k
                 .extract()
                 .map_err(|_| PyTypeError::new_err("scenario tables need string keys"))?;
-            t.insert(key, py_to_toml(&item)?);
+            t.insert(key, to_toml(&item, depth + 1)?);
         }
         return Ok(toml::Value::Table(t));
     }
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
-        let items: PyResult<Vec<toml::Value>> =
-            v.try_iter()?.map(|item| py_to_toml(&item?)).collect();
+        let items: PyResult<Vec<toml::Value>> = v
+            .try_iter()?
+            .map(|item| to_toml(&item?, depth + 1))
+            .collect();
         return Ok(toml::Value::Array(items?));
     }
     if v.hasattr("dtype")? && v.hasattr("tolist")? {
-        return py_to_toml(&v.call_method0("tolist")?);
+        return to_toml(&v.call_method0("tolist")?, depth);
     }
     Err(PyTypeError::new_err(format!(
         "cannot put a {} in a scenario: expected bool, int, float, str, list or dict",
@@ -133,7 +150,7 @@ pub(crate) fn scenario_of(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<Sc
 
 fn load_file(path: &std::path::Path) -> Result<PyScenario, ScenarioError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+    let text = formica::limits::read_text(path).map_err(|e| ScenarioError::Io {
         file: file.clone(),
         message: e.to_string(),
     })?;
@@ -151,7 +168,15 @@ impl PyScenario {
         value: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, Self>> {
         let py = slf.py();
-        let v = py_to_toml(value)?;
+        let v = py_to_toml(value).map_err(|e| {
+            // The same error, naming the key.
+            let text = format!("{key}: {}", e.value(py));
+            if e.is_instance_of::<PyTypeError>(py) {
+                PyTypeError::new_err(text)
+            } else {
+                PyValueError::new_err(text)
+            }
+        })?;
         guard(|| {
             let mut me = slf.borrow_mut();
             let mut overrides = me.overrides.clone();

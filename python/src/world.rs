@@ -20,7 +20,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError, TryLockError};
 
 /// Every colour, in code order: the LED codes of `World.leds` index this list.
 const COLORS: [Color; 11] = Color::ALL;
@@ -75,6 +75,10 @@ fn row_major<'a, 'py, D: numpy::ndarray::Dimension>(
 
 /// Most worlds of one `Worlds`.
 const MAX_WORLDS: usize = 10_000;
+/// Most robots in all the worlds of one `Worlds` together (a robot holds 6 to 16 KiB as it
+/// runs, so this is up to about 16 GB): past it, a request fails here with a message, where
+/// running out of memory would abort the interpreter.
+const MAX_WORLDS_ROBOTS: usize = 1_000_000;
 
 /// Outcome codes of `Worlds.step`: 0 still running, 1 success, 2 wall, 3 timeout.
 fn outcome_code(o: Option<Outcome>) -> i8 {
@@ -127,6 +131,27 @@ impl Build {
             robot_every: 1,
             // Python controllers run on the caller's thread (the GIL).
             threads: 0,
+        }
+    }
+}
+
+/// The thread pool that builds and steps `Worlds`, one per process: a child forked from a
+/// process that used it (`multiprocessing`'s default on Linux) has none of its threads, and
+/// work handed to rayon's global pool there would wait for ever, so the child builds its own.
+fn worlds_pool() -> PyResult<Arc<rayon::ThreadPool>> {
+    static POOL: Mutex<Option<(u32, Arc<rayon::ThreadPool>)>> = Mutex::new(None);
+    let mut pool = POOL.lock().unwrap_or_else(PoisonError::into_inner);
+    let pid = std::process::id();
+    match &*pool {
+        Some((owner, p)) if *owner == pid => Ok(p.clone()),
+        _ => {
+            let p =
+                Arc::new(rayon::ThreadPoolBuilder::new().build().map_err(|e| {
+                    PyRuntimeError::new_err(format!("starting worker threads: {e}"))
+                })?);
+            // The parent's pool is not dropped here: its threads are not in this process.
+            std::mem::forget(pool.replace((pid, p.clone())));
+            Ok(p)
         }
     }
 }
@@ -959,6 +984,16 @@ impl PyWorlds {
                     seeds.len()
                 )));
             }
+            let robots = seeds.len().saturating_mul(sc.robot_count());
+            if robots > MAX_WORLDS_ROBOTS {
+                return Err(PyValueError::new_err(format!(
+                    "seeds: {} worlds of {} robots are {robots} robots, and one Worlds holds at \
+                     most {MAX_WORLDS_ROBOTS} (6 to 16 KiB each in memory): use fewer worlds \
+                     or smaller swarms",
+                    seeds.len(),
+                    sc.robot_count()
+                )));
+            }
             let python = uses_python(&sc, &build);
             let built: Vec<Result<Sim, formica::ScenarioError>> = if python {
                 seeds
@@ -966,11 +1001,14 @@ impl PyWorlds {
                     .map(|&s| Sim::new(&sc, &build, Some(s)))
                     .collect()
             } else {
+                let pool = worlds_pool()?;
                 py.detach(|| {
-                    seeds
-                        .par_iter()
-                        .map(|&s| Sim::new(&sc, &build, Some(s)))
-                        .collect()
+                    pool.install(|| {
+                        seeds
+                            .par_iter()
+                            .map(|&s| Sim::new(&sc, &build, Some(s)))
+                            .collect()
+                    })
                 })
             };
             let sims: Vec<Sim> = built
@@ -1090,9 +1128,12 @@ impl PyWorlds {
                 let mut left = ticks;
                 let mut outcomes: Vec<Option<Outcome>> =
                     sims.iter().map(|g| g.run.outcome()).collect();
+                let pool = worlds_pool()?;
                 while left > 0 && outcomes.iter().any(Option::is_none) {
                     let chunk = left.min(4096);
-                    outcomes = py.detach(|| sims.par_iter_mut().map(|g| run(g, chunk)).collect());
+                    outcomes = py.detach(|| {
+                        pool.install(|| sims.par_iter_mut().map(|g| run(g, chunk)).collect())
+                    });
                     left -= chunk;
                     py.check_signals()?;
                 }

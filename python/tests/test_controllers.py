@@ -342,3 +342,25 @@ def test_the_layout_reads_a_proximity_value_through_the_models_curve():
     assert abs(kh[1] - (-math.log((0.2 + 0.085) / 4.14) / 33.0)) < 1e-5
     assert abs(fb[1] - (0.0100527 / 0.2 - 0.000163144)) < 1e-5 and abs(fb[2] - (0.0100527 / 0.5 - 0.000163144)) < 1e-5
     assert abs(ep[2] - 0.5 * 0.05) < 1e-6
+
+
+class LateState:
+    """Names its state only once it steps."""
+
+    def __init__(self, layout):
+        self.layout = layout
+
+    def step(self, r):
+        self.state = "late" if r.time_s > 0.15 else "early"
+        return 0.0, 0.0
+
+
+formica.register_controller("py-late-state", LateState)
+
+
+def test_a_state_first_set_in_step_is_shown():
+    w = formica.World(scenario("py-late-state", count=3))
+    w.step(1)
+    assert w.states == ["early"] * 3
+    w.step(2)
+    assert w.states == ["late"] * 3

@@ -105,6 +105,20 @@ def test_stepping_before_reset_says_to_reset():
             env.step(action)
 
 
+def test_the_gymnasium_env_refuses_to_step_past_the_end():
+    # It used to pay the success reward again at every later step.
+    env = fenv.TransportGymEnv(robots=2, set={"objects.0.at": [2.3, 0.0]})
+    env.reset(seed=1)
+    _, reward, terminated, _, info = env.step(np.zeros((2, 2), dtype=np.float32))
+    assert terminated and info["outcome"] == "success" and reward > 0
+    with pytest.raises(RuntimeError, match=r"reset\(\) first"):
+        env.step(np.zeros((2, 2), dtype=np.float32))
+    env.reset(seed=2)
+    env.step(np.zeros((2, 2), dtype=np.float32))
+    with pytest.raises(RuntimeError, match=r"reset\(\) first"):
+        fenv.parallel_env(robots=2).state()
+
+
 def test_the_default_scenario_works_outside_the_repository(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     env = fenv.parallel_env(robots=3)

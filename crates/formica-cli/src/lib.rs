@@ -245,8 +245,8 @@ pub fn not_a_scenario_hint(path: &std::path::Path) -> Option<String> {
     }
 }
 
-/// Most worker threads `run` and `sweep` start.
-pub(crate) const MAX_THREADS: usize = 1024;
+/// Most worker threads `run` and `sweep` start (and the Python package's `run`).
+pub const MAX_THREADS: usize = 1024;
 
 /// `--threads`: 1 to [`MAX_THREADS`].
 pub(crate) fn check_threads(t: Option<usize>) -> Result<(), CliError> {

@@ -1370,9 +1370,9 @@ impl Scenario {
                     }
                     other => {
                         return Err(format!(
-                        "`{so_far}` is {}, not a table or an array: cannot set `{part}` in it",
-                        a_toml_type(other)
-                    ))
+                            "`{so_far}` is {}, not a table or an array: cannot set `{part}` in it",
+                            a_toml_type(other)
+                        ))
                     }
                 };
             }
@@ -1859,7 +1859,6 @@ fn non_finite_literal(text: &str) -> Option<(usize, &str)> {
     }
     None
 }
-
 
 /// A TOML value's type with its article, for messages: `an integer`, `a string`, `an array`.
 pub fn a_toml_type(v: &toml::Value) -> &'static str {
