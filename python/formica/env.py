@@ -73,6 +73,23 @@ def _whole(name: str, value, least: int = 1) -> int:
     return int(value)
 
 
+def _speeds(name: str, action) -> np.ndarray:
+    """``action`` as a float32 array of wheel speeds; strings (``["1", "2"]``) are refused,
+    not parsed."""
+    a = np.asarray(action)
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{name}: wheel speeds must be numbers, got an array of dtype {a.dtype}")
+    return a.astype(np.float32, copy=False)
+
+
+def _finite(name: str, value) -> float:
+    """``value`` as a finite float; NaN, infinity, a bool or a string is a ValueError naming
+    ``name`` (a NaN reward would make every reward NaN)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise ValueError(f"{name}: expected a finite number, got {value!r}")
+    return float(value)
+
+
 def prepare_scenario(scenario, robots=None, set=None, sensors=DEFAULT_SENSORS):
     """A copy of ``scenario`` (a path or a :class:`formica.Scenario`; the default
     ``scenarios/seed-transport.toml`` also works outside the repository, from a copy inside
@@ -127,11 +144,11 @@ class _Task:
         self.scenario = prepare_scenario(scenario, robots, set, tuple(sensors))
         self.frame_skip = frame_skip
         self.max_steps = max_steps
-        self.progress_reward = float(progress_reward)
-        self.success_reward = float(success_reward)
-        self.wall_penalty = float(wall_penalty)
-        self.time_penalty = float(time_penalty)
-        self.next_seed = self.scenario.seed if seed is None else int(seed)
+        self.progress_reward = _finite("progress_reward", progress_reward)
+        self.success_reward = _finite("success_reward", success_reward)
+        self.wall_penalty = _finite("wall_penalty", wall_penalty)
+        self.time_penalty = _finite("time_penalty", time_penalty)
+        self.next_seed = self.scenario.seed if seed is None else _whole("seed", seed, 0)
         probe = formica.World(self.scenario, seed=self.next_seed)
         self.n = len(probe)
         if self.n == 0:
@@ -143,7 +160,7 @@ class _Task:
 
     def take_seed(self, seed: Optional[int]) -> int:
         if seed is not None:
-            self.next_seed = int(seed)
+            self.next_seed = _whole("seed", seed, 0)
         s = self.next_seed
         self.next_seed += 1
         return s
@@ -240,7 +257,7 @@ class TransportParallelEnv(ParallelEnv):
             i = self._index.get(agent)
             if i is None:
                 raise ValueError(f"unknown agent {agent!r}")
-            a = np.asarray(action, dtype=np.float32)
+            a = _speeds(agent, action)
             if a.shape != (2,):
                 raise ValueError(f"{agent}: expected an action of shape (2,), got {a.shape}")
             if not np.all(np.isfinite(a)):
@@ -325,7 +342,7 @@ class TransportGymEnv(gymnasium.Env):
             # Stepping on would pay the ending's reward again (a success every step).
             raise RuntimeError("call reset() first (and again after the episode ended)")
         t = self._task
-        a = np.asarray(action, dtype=np.float32)
+        a = _speeds("action", action)
         if a.shape != (t.n, 2):
             raise ValueError(f"expected an action of shape ({t.n}, 2), got {a.shape}")
         self.world.set_actions(a)
@@ -389,7 +406,7 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
         if self.worlds is None:
             raise RuntimeError("call reset() first")
         t = self._task
-        a = np.asarray(actions, dtype=np.float32)
+        a = _speeds("actions", actions)
         if a.shape != (self.num_envs, t.n, 2):
             raise ValueError(f"expected actions of shape ({self.num_envs}, {t.n}, 2), got {a.shape}")
         codes = self.worlds.step(a, t.frame_skip)

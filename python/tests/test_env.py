@@ -105,6 +105,23 @@ def test_stepping_before_reset_says_to_reset():
             env.step(action)
 
 
+def test_seeds_rewards_and_actions_that_are_not_what_they_say_are_refused():
+    for options, match in (
+        ({"seed": 1.7}, "seed: expected a whole number"),
+        ({"seed": "5"}, "seed: expected a whole number"),
+        ({"progress_reward": float("nan")}, "progress_reward: expected a finite number"),
+        ({"wall_penalty": "10"}, "wall_penalty: expected a finite number"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            fenv.parallel_env(robots=2, **options)
+    env = fenv.parallel_env(robots=2)
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match="must be numbers"):
+        env.step({"robot_0": ["1", "2"]})
+    with pytest.raises(ValueError, match="seed: expected a whole number"):
+        env.reset(seed=2.5)
+
+
 def test_the_gymnasium_env_refuses_to_step_past_the_end():
     # It used to pay the success reward again at every later step.
     env = fenv.TransportGymEnv(robots=2, set={"objects.0.at": [2.3, 0.0]})
