@@ -14,8 +14,7 @@ use formica::scenario::Color;
 use formica::{Outcome, Overrides, Scenario};
 use formica_cli::provenance::Provenance;
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2, PyArrayLike3, PyArrayMethods};
-use numpy::{PyReadwriteArray2, PyReadwriteArray3};
-use pyo3::exceptions::{PyIndexError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyIndexError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
@@ -53,6 +52,22 @@ fn color_code(c: Color) -> u8 {
         .iter()
         .position(|&k| k == c)
         .map_or(u8::MAX, |i| i as u8)
+}
+
+/// `out` as a writable float32 array of `D`'s dimensions, or an error that says what it must be.
+fn out_buffer<'py, D: numpy::ndarray::Dimension>(
+    out: &Bound<'py, PyAny>,
+) -> PyResult<numpy::PyReadwriteArray<'py, f32, D>> {
+    out.extract().map_err(|_| {
+        let what = match (out.getattr("dtype"), out.getattr("ndim")) {
+            (Ok(dtype), Ok(ndim)) => format!("a {ndim}-dimensional array of dtype {dtype}"),
+            _ => format!("a {}", crate::type_name(out)),
+        };
+        PyTypeError::new_err(format!(
+            "out: expected a writable {}-dimensional float32 numpy array, got {what}",
+            D::NDIM.unwrap_or(0)
+        ))
+    })
 }
 
 /// The memory of an `out` buffer, if it is laid out row-major (C order), the index order the
@@ -750,8 +765,9 @@ impl PyWorld {
         &self,
         py: Python<'py>,
         group: Option<usize>,
-        out: Option<PyReadwriteArray2<'py, f32>>,
+        out: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
+        let out = out.map(|o| out_buffer::<numpy::Ix2>(&o)).transpose()?;
         let g = self.sim()?;
         let (idx, shape) = g.selection(group)?;
         let l = shape.flat.len();
@@ -1150,8 +1166,9 @@ impl PyWorlds {
     fn readings<'py>(
         &self,
         py: Python<'py>,
-        out: Option<PyReadwriteArray3<'py, f32>>,
+        out: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
+        let out = out.map(|o| out_buffer::<numpy::Ix3>(&o)).transpose()?;
         let locks = self.locks()?;
         let (idx, shape) = locks[0].selection(None)?;
         let (e, n, l) = (locks.len(), idx.len(), shape.flat.len());

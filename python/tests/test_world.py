@@ -170,6 +170,12 @@ def test_a_readings_buffer_in_another_layout_is_refused_not_filled_out_of_order(
     ws = formica.Worlds(SEED_TRANSPORT, [1, 2])
     with pytest.raises(ValueError, match="C-contiguous"):
         ws.readings(out=np.zeros(ws.readings().shape, np.float32, order="F"))
+    # Another dtype, a list or a wrong dimension: the error names `out` and what it must be.
+    for buf in (np.zeros(want.shape), list(want), np.zeros(want.size, np.float32)):
+        with pytest.raises(TypeError, match="out: expected a writable 2-dimensional float32"):
+            w.readings(out=buf)
+    with pytest.raises(TypeError, match="out: expected a writable 3-dimensional float32 .* dtype float64"):
+        ws.readings(out=np.zeros(ws.readings().shape))
 
 
 def test_a_rejected_worlds_step_changes_no_world_and_names_the_one_at_fault():
