@@ -62,14 +62,16 @@ SENSORS = ("proximity", "light", "beacon", "camera")
 
 
 
-def _whole(name: str, value, least: int = 1) -> int:
-    """``value`` as a whole number of at least ``least``; a fraction (``1.9``), a bool or a
-    string is a ValueError naming ``name``, not a number cut short."""
+def _whole(name: str, value, least: int = 1, most: Optional[int] = None) -> int:
+    """``value`` as a whole number from ``least`` to ``most``; a fraction (``1.9``), a bool or
+    a string is a ValueError naming ``name``, not a number cut short."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         if not (isinstance(value, numbers.Real) and float(value).is_integer()):
             raise ValueError(f"{name}: expected a whole number, got {value!r}")
     if int(value) < least:
         raise ValueError(f"{name}: expected at least {least}, got {value!r}")
+    if most is not None and int(value) > most:
+        raise ValueError(f"{name}: expected at most {most}, got {value!r}")
     return int(value)
 
 
@@ -137,7 +139,8 @@ class _Task:
         wall_penalty: float = 10.0,
         time_penalty: float = 0.0,
     ):
-        frame_skip = _whole("frame_skip", frame_skip)
+        # Ticks per step: at most a run's longest duration (10^6 s) at 1000 ticks/s.
+        frame_skip = _whole("frame_skip", frame_skip, 1, 10**9)
         max_steps = None if max_steps is None else _whole("max_steps", max_steps)
         if isinstance(sensors, str):
             sensors = (sensors,)

@@ -627,8 +627,21 @@ fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
             "{who}: step must return 2 to 5 values (left, right, led, attach, coast), got {n}"
         )));
     }
-    let left: f64 = items.get_item(0)?.extract()?;
-    let right: f64 = items.get_item(1)?.extract()?;
+    let speed = |i: usize, which: &str| -> PyResult<f64> {
+        let v = items.get_item(i)?;
+        let number = if v.is_instance_of::<PyBool>() {
+            None
+        } else {
+            v.extract::<f64>().ok()
+        };
+        number.ok_or_else(|| {
+            PyTypeError::new_err(format!(
+                "{who}: the {which} wheel speed must be a number (m/s), got {}",
+                crate::type_name(&v)
+            ))
+        })
+    };
+    let (left, right) = (speed(0, "left")?, speed(1, "right")?);
     let (left, right) = (left as f32, right as f32);
     check_wheels(left, right, || who.to_string())?;
     let led = if n > 2 {

@@ -364,3 +364,22 @@ def test_a_state_first_set_in_step_is_shown():
     assert w.states == ["early"] * 3
     w.step(2)
     assert w.states == ["late"] * 3
+
+
+class Wordy:
+    """Returns its wheel speeds as strings."""
+
+    def __init__(self, layout):
+        pass
+
+    def step(self, r):
+        return "1", "2"
+
+
+formica.register_controller("py-wordy", Wordy)
+
+
+def test_wheel_speeds_that_are_not_numbers_name_the_controller():
+    w = formica.World(scenario("py-wordy", count=2))
+    with pytest.raises(TypeError, match="py-wordy.*left wheel speed must be a number .*got str"):
+        w.step(1)

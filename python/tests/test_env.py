@@ -111,6 +111,7 @@ def test_seeds_rewards_and_actions_that_are_not_what_they_say_are_refused():
         ({"seed": "5"}, "seed: expected a whole number"),
         ({"progress_reward": float("nan")}, "progress_reward: expected a finite number"),
         ({"wall_penalty": "10"}, "wall_penalty: expected a finite number"),
+        ({"frame_skip": 10**30}, "frame_skip: expected at most"),
     ):
         with pytest.raises(ValueError, match=match):
             fenv.parallel_env(robots=2, **options)
