@@ -967,7 +967,20 @@ pub struct PyWorlds {
 
 impl PyWorlds {
     fn locks(&self) -> PyResult<Vec<Held<'_>>> {
-        self.sims.iter().map(SimCell::lock).collect()
+        self.sims
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let g = m.lock_any()?;
+                if g.broken {
+                    return Err(PyRuntimeError::new_err(format!(
+                        "world {i} stopped half-way through a tick at an earlier error; \
+                         reset({i}, seed) rebuilds it"
+                    )));
+                }
+                Ok(g)
+            })
+            .collect()
     }
 }
 
@@ -1136,7 +1149,18 @@ impl PyWorlds {
             let outcomes: Vec<Option<Outcome>> = if self.python {
                 // World after world, on this thread.
                 sims.iter_mut()
-                    .map(|g| g.ticks_interruptibly(py, ticks))
+                    .enumerate()
+                    .map(|(i, g)| {
+                        g.ticks_interruptibly(py, ticks).inspect_err(|e| {
+                            // The exception as raised, with a note of where (Python 3.11+).
+                            let note = format!(
+                                "in world {i} of this Worlds, stepped one after another: the \
+                                 worlds before it took their ticks, those after it none; \
+                                 reset({i}, seed) rebuilds it"
+                            );
+                            let _ = e.value(py).call_method1("add_note", (note,));
+                        })
+                    })
                     .collect::<PyResult<_>>()?
             } else {
                 // In chunks, the GIL released for each, so that Ctrl-C interrupts a long call

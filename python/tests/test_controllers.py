@@ -159,6 +159,17 @@ def test_an_exception_in_a_controller_comes_out_and_the_world_is_spent():
         w.step()
     with pytest.raises(KeyError, match="boom"):
         formica.run(scenario("py-boom", count=3), seeds=[1, 2], threads=2, duration=5)
+    # In Worlds: the exception as raised, noting which world; the world is named after.
+    ws = formica.Worlds(scenario("py-boom", count=3), [1, 2, 3])
+    with pytest.raises(KeyError, match="boom") as raised:
+        ws.step(None, 10)
+    if hasattr(raised.value, "__notes__"):  # Python 3.11+
+        assert "in world 0 of this Worlds" in raised.value.__notes__[0]
+    with pytest.raises(RuntimeError, match=r"world 0 stopped half-way.*reset\(0, seed\)"):
+        ws.step(None, 1)
+    ws.reset(0, 1)
+    with pytest.raises(KeyError, match="boom"):
+        ws.step(None, 10)
 
 
 def test_a_step_returning_nonsense_is_a_clear_error():
