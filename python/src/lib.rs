@@ -183,6 +183,7 @@ fn _formica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<controllers::PyBatch>()?;
     m.add_function(wrap_pyfunction!(scenario::load, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::parse, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::_scenario_from_parts, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::bench_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::shipped_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(runs::run_seeds, m)?)?;

@@ -191,6 +191,25 @@ impl PyScenario {
         Ok(slf)
     }
 
+    /// Pickles as its file name, text and overrides (so that a scenario reaches a `spawn`
+    /// process pool, and `copy.copy` and `copy.deepcopy` work); it is checked again where it is
+    /// unpickled, with the controllers registered there.
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (String, String, Vec<(String, String)>))> {
+        let rebuild = py
+            .import("formica._formica")?
+            .getattr("_scenario_from_parts")?;
+        let overrides = self
+            .overrides
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_string()))
+            .collect();
+        Ok((rebuild, (self.file.clone(), self.text.clone(), overrides)))
+    }
+
     /// An independent copy (later `set` calls on either do not affect the other).
     fn copy(&self) -> Self {
         PyScenario {
@@ -313,6 +332,28 @@ pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyScenario> {
 #[pyo3(signature = (text, file = "<string>".to_string()))]
 pub fn parse(py: Python<'_>, text: String, file: String) -> PyResult<PyScenario> {
     guard(|| PyScenario::make(file, text, Vec::new()).map_err(|e| scenario_error(py, &e)))
+}
+
+/// A pickled [`PyScenario`] again: its file name, text and overrides (each value as TOML).
+#[pyfunction]
+pub fn _scenario_from_parts(
+    py: Python<'_>,
+    file: String,
+    text: String,
+    overrides: Vec<(String, String)>,
+) -> PyResult<PyScenario> {
+    let overrides = overrides
+        .into_iter()
+        .map(|(k, v)| {
+            let mut t: toml::Table = toml::from_str(&format!("v = {v}"))
+                .map_err(|e| PyValueError::new_err(format!("{k}: not a TOML value: {e}")))?;
+            let v = t
+                .remove("v")
+                .ok_or_else(|| PyValueError::new_err(format!("{k}: not a TOML value")))?;
+            Ok((k, v))
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    guard(|| PyScenario::make(file, text, overrides).map_err(|e| scenario_error(py, &e)))
 }
 
 /// The random-walk benchmark world of `formica bench`'s earlier figures (before its

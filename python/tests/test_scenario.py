@@ -82,3 +82,22 @@ def test_load_and_read_store_say_what_a_wrong_file_is():
         formica.load("experiments/smoke.toml")
     with pytest.raises(ValueError, match="not a result store"):
         formica.read_store("scenarios/seed-transport.toml")
+
+
+def _successes(sc):
+    return [r["outcome"] for r in formica.run(sc, seeds=[1, 2], duration=20, as_frame=False)]
+
+
+def test_a_scenario_pickles_and_copies_with_its_overrides():
+    import copy
+    import multiprocessing as mp
+    import pickle
+
+    sc = formica.load(SEED_TRANSPORT).set("robots.0.count", 7).set("objects.0.mass", 12.5)
+    odd = sc.copy().set("robots.0.params", {"nested": [[1, 2], {"a": "text", "b": 0.1, "c": True}]})
+    for one in (sc, odd):
+        for again in (pickle.loads(pickle.dumps(one)), copy.copy(one), copy.deepcopy(one)):
+            assert again.effective_text == one.effective_text
+            assert again.robots == one.robots
+    with mp.get_context("spawn").Pool(1) as pool:
+        assert pool.map(_successes, [sc])[0] == _successes(sc)
