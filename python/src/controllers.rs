@@ -675,7 +675,7 @@ fn action_of(out: &Bound<'_, PyAny>, who: &str) -> PyResult<Actuation> {
 }
 
 /// The same exception type, its message prefixed with who raised it.
-fn prefix(py: Python<'_>, e: PyErr, who: &str) -> PyErr {
+pub(crate) fn prefix(py: Python<'_>, e: PyErr, who: &str) -> PyErr {
     let msg = e.value(py).to_string();
     if e.is_instance_of::<PyTypeError>(py) {
         PyTypeError::new_err(format!("{who}: {msg}"))
@@ -908,6 +908,7 @@ impl BatchController for BatchAdapter {
 /// Applies what a batched function returned: wheel speeds `[N, 2]`, or a tuple `(wheels,
 /// leds, attach)` with `leds` and `attach` optional (None, or one code per row).
 fn apply_batch(out: &Bound<'_, PyAny>, robots: &mut [BatchRobot<'_>], who: &str) -> PyResult<()> {
+    let py = out.py();
     let n = robots.len();
     let (wheels, leds, attach) = match out.cast::<PyTuple>() {
         Ok(t) => {
@@ -945,8 +946,9 @@ fn apply_batch(out: &Bound<'_, PyAny>, robots: &mut [BatchRobot<'_>], who: &str)
     }
     if let Some(leds) = leds {
         let codes = codes_of(&leds, n, who, "leds")?;
-        for (r, c) in robots.iter_mut().zip(codes) {
-            r.action.led = color_of_code(c)?;
+        for (k, (r, c)) in robots.iter_mut().zip(codes).enumerate() {
+            r.action.led =
+                color_of_code(c).map_err(|e| prefix(py, e, &format!("{who}, row {k}")))?;
         }
     }
     for r in robots.iter_mut() {
@@ -954,8 +956,9 @@ fn apply_batch(out: &Bound<'_, PyAny>, robots: &mut [BatchRobot<'_>], who: &str)
     }
     if let Some(attach) = attach {
         let codes = codes_of(&attach, n, who, "attach")?;
-        for (r, c) in robots.iter_mut().zip(codes) {
-            r.action.attach = attach_of_code(c)?;
+        for (k, (r, c)) in robots.iter_mut().zip(codes).enumerate() {
+            r.action.attach =
+                attach_of_code(c).map_err(|e| prefix(py, e, &format!("{who}, row {k}")))?;
         }
     }
     Ok(())

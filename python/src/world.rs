@@ -357,11 +357,19 @@ impl Sim {
             let (left, right) = (wheels[2 * i], wheels[2 * i + 1]);
             check_wheels(left, right, || format!("set_actions, robot {i}"))?;
             let led = match &leds {
-                Some(c) => color_of_code(c[i])?,
+                Some(c) => color_of_code(c[i]).map_err(|e| {
+                    Python::attach(|py| {
+                        crate::controllers::prefix(py, e, &format!("set_actions, robot {i}"))
+                    })
+                })?,
                 None => Color::Off,
             };
             let attach = match &attach {
-                Some(c) => attach_of_code(c[i])?,
+                Some(c) => attach_of_code(c[i]).map_err(|e| {
+                    Python::attach(|py| {
+                        crate::controllers::prefix(py, e, &format!("set_actions, robot {i}"))
+                    })
+                })?,
                 None => formica::controller::AttachCommand::Keep,
             };
             out.push(Actuation {

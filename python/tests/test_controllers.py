@@ -394,3 +394,13 @@ def test_wheel_speeds_that_are_not_numbers_name_the_controller():
     w = formica.World(scenario("py-wordy", count=2))
     with pytest.raises(TypeError, match="py-wordy.*left wheel speed must be a number .*got str"):
         w.step(1)
+
+
+@formica.register_batched("py-bad-led")
+def bad_led(readings):
+    return np.zeros((len(readings), 2)), np.full(len(readings), 99)
+
+
+def test_a_batched_controllers_bad_code_names_it_and_the_row():
+    with pytest.raises(ValueError, match="py-bad-led.*row 0: LED code 99 is not a colour"):
+        formica.World(scenario("py-bad-led", count=2)).step(2)

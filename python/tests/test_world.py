@@ -270,6 +270,11 @@ def test_led_and_attach_codes_must_be_whole_numbers():
         with pytest.raises(ValueError, match="whole-number codes"):
             w.set_actions(np.zeros((n, 2)), leds=leds, attach=attach)
     w.set_actions(np.zeros((n, 2)), leds=np.full(n, 1.0), attach=np.zeros(n, dtype=np.int8))
+    # A code out of range names the robot.
+    with pytest.raises(ValueError, match="set_actions, robot 0: LED code 99 is not a colour"):
+        w.set_actions(np.zeros((n, 2)), leds=np.full(n, 99))
+    with pytest.raises(ValueError, match="set_actions, robot 0: attach: expected -1"):
+        w.set_actions(np.zeros((n, 2)), attach=np.full(n, 5))
 
 
 def test_boolean_attach_arrays_are_refused():
