@@ -38,10 +38,7 @@ pub struct Args {
 pub fn main(a: Args) -> Result<(), CliError> {
     for p in &a.inputs {
         if !p.is_file() {
-            return Err(CliError::Input(format!(
-                "{}: no such result store",
-                p.display()
-            )));
+            return Err(CliError::Input(crate::store::not_a_store(p)));
         }
         if p.canonicalize().ok() == a.out.canonicalize().ok() {
             return Err(CliError::Input(format!(

@@ -23,7 +23,7 @@ pub struct Args {
           conflicts_with_all = ["scenario", "seed", "duration", "controller", "set"])]
     pub db: Option<PathBuf>,
     /// With `--db`: the trial to record (its number, as `formica report` lists it).
-    #[arg(long, requires = "db")]
+    #[arg(long, requires = "db", value_parser = crate::one_trial)]
     pub trial: Option<usize>,
     /// Seed (default: the file's `run.seed`).
     #[arg(long)]

@@ -18,7 +18,7 @@ pub struct Args {
           conflicts_with_all = ["scenario", "seed", "duration", "set", "controller"])]
     pub db: Option<PathBuf>,
     /// With `--db`: the trial to show (its number, as `formica report` lists it).
-    #[arg(long, requires = "db")]
+    #[arg(long, requires = "db", value_parser = crate::one_trial)]
     pub trial: Option<usize>,
     /// Port to listen on (0: any free port).
     #[arg(long, default_value_t = formica_serve::DEFAULT_PORT)]
@@ -37,11 +37,29 @@ pub struct Args {
     pub set: Vec<String>,
     /// Address to listen on. The default, 127.0.0.1, keeps the viewer on this machine; any
     /// other address (e.g. 0.0.0.0) exposes it to the network, unauthenticated.
-    #[arg(long, default_value = "127.0.0.1")]
+    #[arg(long, default_value = "127.0.0.1", value_parser = listen_address)]
     pub host: IpAddr,
     /// Start playing at once instead of paused.
     #[arg(long)]
     pub play: bool,
+}
+
+/// `--host`: an address a client can connect to (not a multicast or broadcast one), given as
+/// numbers.
+fn listen_address(s: &str) -> Result<IpAddr, String> {
+    if s.eq_ignore_ascii_case("localhost") {
+        return Err("give the address as numbers: 127.0.0.1 (or ::1)".into());
+    }
+    let ip: IpAddr = s
+        .parse()
+        .map_err(|_| format!("expected an IP address such as 127.0.0.1 or 0.0.0.0, got `{s}`"))?;
+    let broadcast = matches!(ip, IpAddr::V4(v4) if v4.is_broadcast());
+    if ip.is_multicast() || broadcast {
+        return Err(format!(
+            "{ip} is a multicast or broadcast address, which no client can connect to"
+        ));
+    }
+    Ok(ip)
 }
 
 /// Runs the command.

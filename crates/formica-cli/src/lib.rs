@@ -245,6 +245,17 @@ pub fn not_a_scenario_hint(path: &std::path::Path) -> Option<String> {
     }
 }
 
+/// `--trial N` of `serve` and `record`: one trial; a range or `all` is pointed to `run`.
+pub(crate) fn one_trial(s: &str) -> Result<usize, String> {
+    if s.contains("..") || s.eq_ignore_ascii_case("all") {
+        return Err(format!(
+            "this command shows one trial (`formica run --db STUDY.db --trial {s}` checks many)"
+        ));
+    }
+    s.parse()
+        .map_err(|_| format!("expected a trial number (0, 1, ...), got `{s}`"))
+}
+
 /// Most worker threads `run` and `sweep` start (and the Python package's `run`).
 pub const MAX_THREADS: usize = 1024;
 

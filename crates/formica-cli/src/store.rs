@@ -264,10 +264,7 @@ impl Store {
     /// without the store's tables is an input error (and is left as it was).
     pub fn open_existing(path: &Path) -> Result<Store, CliError> {
         if !path.is_file() {
-            return Err(CliError::Input(format!(
-                "{}: no such result store",
-                path.display()
-            )));
+            return Err(CliError::Input(not_a_store(path)));
         }
         if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
             return Err(CliError::Input(format!(
@@ -827,6 +824,15 @@ pub struct StoredTrial {
     pub params_json: String,
     /// The metrics (`wall_time_s` as measured).
     pub result: RunResult,
+}
+
+/// Why `path`, which is not a file, is no result store: missing, or a folder.
+pub fn not_a_store(path: &Path) -> String {
+    if path.is_dir() {
+        format!("{}: a folder, not a result store (a file)", path.display())
+    } else {
+        format!("{}: no such result store", path.display())
+    }
 }
 
 /// `path` as SQLite takes it for that file: a relative name beginning `file:` gets `./` in

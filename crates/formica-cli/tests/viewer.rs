@@ -117,3 +117,47 @@ fn serve_listens_on_loopback_and_answers() {
     );
     assert!(err.contains("ocluson"), "{err}");
 }
+
+#[test]
+fn serve_refuses_addresses_and_trials_it_cannot_serve() {
+    for (args, says) in [
+        (&["--host", "localhost"][..], "127.0.0.1 (or ::1)"),
+        (&["--host", "224.0.0.1"][..], "multicast or broadcast"),
+        (&["--host", "255.255.255.255"][..], "multicast or broadcast"),
+    ] {
+        let out = formica()
+            .arg("serve")
+            .arg(repo("scenarios/seed-transport.toml"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    let dir = std::env::temp_dir();
+    for (cmd, trial, says) in [
+        ("serve", "1..2", "--trial 1..2` checks many"),
+        ("record", "all", "--trial all` checks many"),
+        ("serve", "-3", "expected a trial number"),
+    ] {
+        let mut c = formica();
+        c.args([cmd, "--db"]).arg(&dir).args(["--trial", trial]);
+        if cmd == "record" {
+            c.args(["--out", "x.gif"]);
+        }
+        let out = c.output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{cmd} {trial}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{cmd} {trial}: {err}");
+    }
+    // A folder named as the store is said to be one.
+    let out = formica()
+        .args(["serve", "--db"])
+        .arg(&dir)
+        .args(["--trial", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("a folder, not a result store"));
+}

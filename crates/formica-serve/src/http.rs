@@ -107,8 +107,24 @@ fn reason(status: u16) -> &'static str {
     }
 }
 
-fn find_head_end(buf: &[u8]) -> Option<usize> {
-    buf.windows(4).position(|w| w == b"\r\n\r\n")
+/// Where the head ends and the body starts: at the first empty line, its lines ended by CRLF
+/// or, as HTTP lets a server accept, by a bare LF.
+fn find_head_end(buf: &[u8]) -> Option<(usize, usize)> {
+    (0..buf.len()).find_map(|i| {
+        if buf[i] != b'\n' {
+            return None;
+        }
+        let head = if i > 0 && buf[i - 1] == b'\r' {
+            i - 1
+        } else {
+            i
+        };
+        match buf.get(i + 1..) {
+            Some([b'\n', ..]) => Some((head, i + 2)),
+            Some([b'\r', b'\n', ..]) => Some((head, i + 3)),
+            _ => None,
+        }
+    })
 }
 
 fn hex(b: u8) -> Option<u8> {
@@ -154,7 +170,7 @@ fn bad(status: u16, msg: &str) -> ReadError {
 pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
     let mut buf: Vec<u8> = Vec::with_capacity(1024);
     let mut chunk = [0u8; 2048];
-    let head_end = loop {
+    let (head_end, body_start) = loop {
         if let Some(p) = find_head_end(&buf) {
             break p;
         }
@@ -191,7 +207,7 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
     }
     let head =
         std::str::from_utf8(&buf[..head_end]).map_err(|_| bad(400, "request head is not UTF-8"))?;
-    let mut lines = head.split("\r\n");
+    let mut lines = head.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l));
     let line = lines.next().unwrap_or_default();
     let mut parts = line.split(' ');
     let (Some(method), Some(target), Some(version), None) =
@@ -237,11 +253,14 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
             }
             host = Some(value.to_string());
         } else if name.eq_ignore_ascii_case("origin") {
+            if origin.is_some() {
+                return Err(bad(400, "more than one Origin header"));
+            }
             origin = Some(value.to_string());
         } else if name.eq_ignore_ascii_case("content-length") {
-            let n: usize = value
-                .parse()
-                .map_err(|_| bad(400, "malformed Content-Length"))?;
+            let n: usize = crate::digits(value)
+                .and_then(|n| usize::try_from(n).ok())
+                .ok_or_else(|| bad(400, "malformed Content-Length"))?;
             if content_length.is_some_and(|m| m != n) {
                 return Err(bad(400, "conflicting Content-Length headers"));
             }
@@ -255,7 +274,7 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
     if body_len > MAX_BODY {
         return Err(bad(413, "request body too large"));
     }
-    let mut have = buf.len() - (head_end + 4);
+    let mut have = buf.len() - body_start;
     while have < body_len {
         match stream.read(&mut chunk) {
             Ok(0) => return Err(bad(400, "incomplete request body")),
@@ -369,5 +388,22 @@ mod tests {
         );
         let big = format!("GET / HTTP/1.1\r\nX: {}\r\n\r\n", "a".repeat(MAX_HEAD));
         assert_eq!(status(&big), 431);
+        // Digits only; one Origin.
+        assert_eq!(status("POST / HTTP/1.1\r\nContent-Length: +0\r\n\r\n"), 400);
+        assert_eq!(
+            status("POST / HTTP/1.1\r\nOrigin: http://a\r\nOrigin: http://b\r\n\r\n"),
+            400
+        );
+    }
+
+    #[test]
+    fn lines_may_end_in_a_bare_line_feed() {
+        // Answered at once, where it used to wait for a CRLF pair until it timed out.
+        let r = parse("POST /api/step?n=2 HTTP/1.1\nHost: 127.0.0.1\nContent-Length: 3\n\nabc")
+            .expect("parses");
+        assert_eq!(r.path, "/api/step");
+        assert_eq!(r.host.as_deref(), Some("127.0.0.1"));
+        let mixed = parse("GET / HTTP/1.1\r\nHost: h\n\r\n").expect("parses");
+        assert_eq!(mixed.host.as_deref(), Some("h"));
     }
 }

@@ -14,7 +14,7 @@
 //! | `GET /api/state[?rays=1][&zones=1]` | time, outcome, object, path, robots (JSON); for a replay, whether it ended as stored |
 //! | `GET /api/series` | goal distance, object speed and robots per state over time (JSON) |
 //! | `GET /api/robot?i=N` | robot N's readings, controller state, wheels and state history (JSON) |
-//! | `POST /api/play`, `/api/pause`, `/api/step[?n=N]`, `/api/speed?x=F`, `/api/restart[?seed=N]` | control; answer with the state (a step runs `n` ticks, or as many as 5 s of computing allow) |
+//! | `POST /api/play`, `/api/pause`, `/api/step[?n=N]`, `/api/speed?x=F`, `/api/restart[?seed=N]` | control; answer with the state (a step runs `n` ticks, or as many as 5 s of computing allow; a step while another is under way gets 503) |
 //! | `GET /api/stats` | request counters and buffer sizes of the server itself |
 //!
 //! Nothing else is served: there is no file system behind the routes, so `..` or any other
@@ -124,6 +124,10 @@ pub struct Stats {
 #[derive(Default)]
 struct Counters {
     stop: AtomicBool,
+    /// A step is queued or running: another is refused (503) rather than queued behind it, so
+    /// that clients that send steps and leave cannot stack minutes of work (a step runs even
+    /// when its client has gone, for up to [`STEP_BUDGET`]).
+    stepping: AtomicBool,
     requests: AtomicU64,
     rejected: AtomicU64,
     path_points: AtomicUsize,
@@ -407,6 +411,9 @@ fn sim_loop(mut sim: Sim, rx: &Receiver<Cmd>, counters: &Counters) {
             }
             Ok(Cmd::Control(c, q, reply)) => {
                 let r = control(&mut sim, c).map(|()| sim.state_json(q));
+                if matches!(c, Control::Step(_)) {
+                    counters.stepping.store(false, Ordering::SeqCst);
+                }
                 let _ = reply.try_send(r);
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
@@ -440,14 +447,16 @@ fn control(sim: &mut Sim, c: Control) -> Result<(), Response> {
     Ok(())
 }
 
+/// The answer when the simulation thread cannot take or answer a command in time.
+fn sim_busy() -> Response {
+    Response::error(503, "the simulation is busy, try again").with_header("Retry-After", "1")
+}
+
 /// Sends a command to the simulation thread and waits for its answer.
 fn ask<T>(shared: &Shared, make: impl FnOnce(SyncSender<T>) -> Cmd) -> Result<T, Response> {
     let (tx, rx) = mpsc::sync_channel(1);
-    let busy = || {
-        Response::error(503, "the simulation is busy, try again").with_header("Retry-After", "1")
-    };
-    shared.cmd.try_send(make(tx)).map_err(|_| busy())?;
-    rx.recv_timeout(SIM_WAIT).map_err(|_| busy())
+    shared.cmd.try_send(make(tx)).map_err(|_| sim_busy())?;
+    rx.recv_timeout(SIM_WAIT).map_err(|_| sim_busy())
 }
 
 /// Whether a `Host` or `Origin` authority names this machine's loopback.
@@ -469,9 +478,24 @@ fn flag(v: &str) -> Result<bool, String> {
     }
 }
 
-/// Checks that every query key is one of `allowed`.
+/// A whole number written as digits only (no sign, no spaces), as query values and
+/// `Content-Length` take them.
+pub(crate) fn digits(v: &str) -> Option<u64> {
+    if v.is_empty() || !v.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    v.parse().ok()
+}
+
+/// Checks that every query key is one of `allowed`, and given once.
 fn only(req: &Request, allowed: &[&str]) -> Result<(), Response> {
-    for (k, _) in &req.query {
+    for (i, (k, _)) in req.query.iter().enumerate() {
+        if req.query[..i].iter().any(|(seen, _)| seen == k) {
+            return Err(Response::error(
+                400,
+                &format!("parameter `{k}` given more than once"),
+            ));
+        }
         if !allowed.contains(&k.as_str()) {
             return Err(Response::error(
                 400,
@@ -565,9 +589,11 @@ fn api_get(shared: &Shared, req: &Request) -> Result<Response, Response> {
         "/api/robot" => {
             only(req, &["i"])?;
             let v = param(req, "i").ok_or_else(|| Response::error(400, "i: missing"))?;
-            let i: usize = v.parse().map_err(|_| {
-                Response::error(400, &format!("i: expected a robot number, got `{v}`"))
-            })?;
+            let i = digits(v)
+                .and_then(|i| usize::try_from(i).ok())
+                .ok_or_else(|| {
+                    Response::error(400, &format!("i: expected a robot number, got `{v}`"))
+                })?;
             ask(shared, |tx| Cmd::Robot(i, tx))?
                 .map(|body| Response::ok(JSON, body))
                 .ok_or_else(|| Response::error(404, &format!("no robot {i}")))
@@ -621,9 +647,7 @@ fn api_post(shared: &Shared, req: &Request) -> Result<Response, Response> {
         "/api/pause" => Control::Pause,
         "/api/step" => Control::Step(match param(req, "n") {
             None => 1,
-            Some(v) => v
-                .parse::<u64>()
-                .ok()
+            Some(v) => digits(v)
                 .filter(|n| (1..=MAX_STEP).contains(n))
                 .ok_or_else(|| {
                     Response::error(400, &format!("n: expected 1 to {MAX_STEP}, got `{v}`"))
@@ -646,8 +670,7 @@ fn api_post(shared: &Shared, req: &Request) -> Result<Response, Response> {
         _ => Control::Restart(match param(req, "seed") {
             None | Some("") => None,
             Some(v) => Some(
-                v.parse::<u64>()
-                    .ok()
+                digits(v)
                     .filter(|s| *s <= formica::limits::MAX_SEED)
                     .ok_or_else(|| {
                         Response::error(
@@ -662,7 +685,21 @@ fn api_post(shared: &Shared, req: &Request) -> Result<Response, Response> {
             ),
         }),
     };
-    let body = ask(shared, |tx| Cmd::Control(c, q, tx))??;
+    let step = matches!(c, Control::Step(_));
+    if step && shared.counters.stepping.swap(true, Ordering::SeqCst) {
+        return Err(
+            Response::error(503, "a step is already under way, try again")
+                .with_header("Retry-After", "1"),
+        );
+    }
+    let (tx, rx) = mpsc::sync_channel(1);
+    if shared.cmd.try_send(Cmd::Control(c, q, tx)).is_err() {
+        if step {
+            shared.counters.stepping.store(false, Ordering::SeqCst);
+        }
+        return Err(sim_busy());
+    }
+    let body = rx.recv_timeout(SIM_WAIT).map_err(|_| sim_busy())??;
     Ok(Response::ok(JSON, body))
 }
 

@@ -345,7 +345,13 @@ impl Sim {
 
     /// Starts over with `seed` (default: the next seed). Keeps playing if it was.
     pub fn restart(&mut self, seed: Option<u64>) -> Result<(), ScenarioError> {
-        let seed = seed.unwrap_or_else(|| self.seed.wrapping_add(1));
+        // The next seed, back to 0 after the largest a scenario takes (so that any run shown
+        // can be run again with `formica run --seed`).
+        let seed = seed.unwrap_or(if self.seed >= formica::limits::MAX_SEED {
+            0
+        } else {
+            self.seed + 1
+        });
         self.run = Self::build(&self.scenario, seed, self.duration_s)?;
         self.seed = seed;
         self.generation += 1;

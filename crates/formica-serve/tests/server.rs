@@ -253,6 +253,10 @@ fn bad_requests_get_errors_never_a_crash() {
         ("POST", "/api/restart?seed=-1", 400),
         ("POST", "/api/restart?seed=abc", 400),
         ("POST", "/api/restart?seed=18446744073709551615", 400),
+        ("POST", "/api/step?n=%2B5", 400),
+        ("GET", "/api/robot?i=%2B1", 400),
+        ("POST", "/api/step?n=1&n=2", 400),
+        ("GET", "/api/state?rays=1&rays=0", 400),
     ] {
         let (code, body) = req(a, method, target);
         assert_eq!(code, want, "{method} {target}: {body}");
@@ -303,6 +307,11 @@ fn controls_step_restart_and_play() {
     );
     let scene2 = json(&req(a, "GET", "/api/scene").1);
     assert_eq!(scene2["seed"], 7);
+    // The next seed after the largest is 0, not one that no command takes.
+    let max = formica::limits::MAX_SEED;
+    assert_eq!(req(a, "POST", &format!("/api/restart?seed={max}")).0, 200);
+    let s3 = json(&req(a, "POST", "/api/restart").1);
+    assert_eq!(s3["seed"], 0);
 
     assert_eq!(req(a, "POST", "/api/speed?x=8").0, 200);
     assert_eq!(req(a, "POST", "/api/play").0, 200);
@@ -492,6 +501,31 @@ fn a_full_server_evicts_idle_clients_and_answers_busy_only_when_all_are_answerin
     assert!(saw_busy, "no 503 while both connections were answering");
     assert!(r.handle.stats().rejected >= 1);
     assert_eq!(req(a, "GET", "/api/state").0, 200, "serves again");
+}
+
+#[test]
+fn steps_do_not_queue_behind_a_step() {
+    // Clients that send long steps and leave used to stack them on the simulation thread (each
+    // runs up to 5 s, client or not): eight such steps kept every other request waiting.
+    let r = start(heavy());
+    let a = r.addr();
+    let long = std::thread::spawn(move || req(a, "POST", "/api/step?n=4000").0);
+    std::thread::sleep(Duration::from_millis(200));
+    let mut refused = None;
+    while refused.is_none() && !long.is_finished() {
+        let (code, body) = req(a, "POST", "/api/step?n=4000");
+        if code == 503 {
+            refused = Some(body);
+        }
+    }
+    assert_eq!(long.join().expect("client"), 200);
+    let body = refused.expect("a second step while the first ran was refused");
+    assert!(body.contains("a step is already under way"), "{body}");
+    assert_eq!(
+        req(a, "POST", "/api/step?n=1").0,
+        200,
+        "steps again after it"
+    );
 }
 
 #[test]
