@@ -45,10 +45,16 @@ impl Read for Deadline<'_> {
 /// One open connection, as the accept loop sees it (oldest first).
 struct Entry {
     id: u64,
-    /// Still sending its request (evictable).
+    /// Still sending its request (evictable once [`IDLE_BEFORE_EVICTION`] old).
     reading: bool,
+    admitted: Instant,
     stream: TcpStream,
 }
+
+/// How long a connection must have been reading before a newcomer may evict it: in a burst of
+/// clients, one admitted just now may have sent its whole request and only wait for its thread
+/// to read it. Without an idle one that old, the newcomer is told to come back (503).
+pub const IDLE_BEFORE_EVICTION: std::time::Duration = std::time::Duration::from_millis(250);
 
 /// The open connections, bounded; shared by the accept loop and the connection threads.
 pub struct Slots {
@@ -129,11 +135,24 @@ impl Slots {
         let mut open = self.lock();
         if open.len() >= self.max {
             // Oldest first: entries are kept in the order they were admitted.
-            let Some(k) = open.iter().position(|e| e.reading) else {
+            let Some(k) = open
+                .iter()
+                .position(|e| e.reading && e.admitted.elapsed() >= IDLE_BEFORE_EVICTION)
+            else {
                 return Err(Full::Busy);
             };
-            if let Some(old) = open.remove(k) {
-                // Its thread's next read fails at once, and it leaves without an answer.
+            if let Some(mut old) = open.remove(k) {
+                // It is told to come back (should it have sent a request after all), and its
+                // thread's next read fails at once.
+                let _ = old
+                    .stream
+                    .set_write_timeout(Some(std::time::Duration::from_millis(20)));
+                let _ = crate::http::write_response(
+                    &mut old.stream,
+                    &crate::http::Response::error(503, "server busy, try again")
+                        .with_header("Retry-After", "1"),
+                    false,
+                );
                 let _ = old.stream.shutdown(Shutdown::Both);
                 self.evicted.fetch_add(1, Ordering::SeqCst);
             }
@@ -142,6 +161,7 @@ impl Slots {
         open.push_back(Entry {
             id,
             reading: true,
+            admitted: Instant::now(),
             stream: handle,
         });
         Ok(Slot {
@@ -181,7 +201,11 @@ mod tests {
         a.answering();
         let b = slots.admit(&s2).expect("room");
         assert_eq!(slots.open(), 2);
-        // Full: the oldest reader (b) goes, the answering one (a) stays.
+        // Full, and the reader (b) has just come: it may be about to send its request, so the
+        // newcomer is told to come back. Once b has been silent a while, it goes, and the
+        // answering one (a) stays.
+        assert_eq!(slots.admit(&s3).err(), Some(Full::Busy));
+        std::thread::sleep(IDLE_BEFORE_EVICTION);
         let c = slots.admit(&s3).expect("evicts");
         assert!(b.evicted() && !a.evicted() && !c.evicted());
         assert_eq!(slots.evictions(), 1);
