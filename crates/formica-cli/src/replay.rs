@@ -40,6 +40,7 @@ impl Replay {
 
     /// How `got` differs from the stored result (every field but the wall-clock time, as
     /// `field: stored, replayed`); empty when the replay reproduced it.
+    ///
     /// End-of-run fields the store has no column for (added after it was written) are left
     /// out; [`Replay::not_compared`] names them.
     pub fn differences(&self, got: &RunResult) -> Vec<String> {
