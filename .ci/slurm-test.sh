@@ -56,7 +56,7 @@ fail() {
     for f in slurmctld.log slurmd.log munged.log slurmctld.out slurmd.out munged.out; do
         [ -f "$WORK/$f" ] && { echo "--- $f" >&2; tail -n 30 "$WORK/$f" >&2; }
     done
-    for f in "$WORK"/shards/slurm-*.out; do
+    for f in "$WORK/sh ards"/slurm-*.out; do
         [ -f "$f" ] && { echo "--- $f" >&2; cat "$f" >&2; }
     done
     exit 1
@@ -128,7 +128,7 @@ done
 [ "$state" = idle ] || fail "the node is not idle (state: ${state:-none})"
 
 SWEEP=$ROOT/experiments/smoke.toml
-"$FORMICA" slurm "$SWEEP" --array 2 --cpus 1 --time 00:10:00 --db-dir "$WORK/shards" \
+"$FORMICA" slurm "$SWEEP" --array 2 --cpus 1 --time 00:10:00 --db-dir "$WORK/sh ards" \
     --script "$WORK/smoke.slurm" --submit > "$WORK/submit.out" || fail "formica slurm --submit"
 cat "$WORK/submit.out"
 JOB=$(sed -n 's/^submitted job \([0-9]*\).*/\1/p' "$WORK/submit.out")
@@ -141,8 +141,10 @@ for _ in $(seq 1 240); do
 done
 [ -z "$(squeue -h -j "$JOB" 2>/dev/null)" ] || fail "job $JOB still queued after 240 s"
 
-ls "$WORK"/shards/shard-0.db "$WORK"/shards/shard-1.db >/dev/null || fail "missing shard stores"
-"$FORMICA" merge "$WORK/all.db" "$WORK"/shards/shard-0.db "$WORK"/shards/shard-1.db
+# The shards' folder has a space in its name: the #SBATCH --output line must hold it whole.
+ls "$WORK/sh ards"/shard-0.db "$WORK/sh ards"/shard-1.db >/dev/null || fail "missing shard stores"
+ls "$WORK/sh ards"/slurm-*.out >/dev/null || fail "no slurm-*.out in the shards' folder"
+"$FORMICA" merge "$WORK/all.db" "$WORK/sh ards"/shard-0.db "$WORK/sh ards"/shard-1.db
 "$FORMICA" sweep "$SWEEP" --db "$WORK/direct.db" --quiet >/dev/null
 strip() { "$FORMICA" export "$1" --csv - | sed 's/,[^,]*$//'; }
 rows=$(strip "$WORK/all.db" | tail -n +2 | wc -l)

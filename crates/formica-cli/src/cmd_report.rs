@@ -81,6 +81,25 @@ fn slug(key: &str) -> String {
         .collect()
 }
 
+/// Longest [`slug`] kept whole in a file name.
+const MAX_SLUG: usize = 60;
+
+/// [`slug`] of `value` for a file name of its own among `taken` (which it joins): cut to
+/// [`MAX_SLUG`] characters, with a short hash of the whole value after it when it was cut, is
+/// not plain ASCII, or is another value's slug already (`friction α` and `friction β`).
+fn unique_slug(value: &str, taken: &mut std::collections::HashSet<String>) -> String {
+    let plain = slug(value);
+    let lossy = plain.len() > MAX_SLUG || !value.is_ascii() || taken.contains(&plain);
+    let s = if lossy {
+        let hash = crate::provenance::sha256_hex(value.as_bytes());
+        format!("{}-{}", &plain[..plain.len().min(MAX_SLUG)], &hash[..8])
+    } else {
+        plain
+    };
+    taken.insert(s.clone());
+    s
+}
+
 /// Distinct values of `key` in trial order (numbers sorted numerically), then `-` if some
 /// parameter sets (cases) do not set it, so that no trial drops out of a plot split by it.
 fn values_of(rows: &[StoredTrial], key: &str) -> Vec<String> {
@@ -578,7 +597,12 @@ pub fn main(a: Args) -> Result<(), CliError> {
                         )
                     })
                     .collect();
-                (g, k)
+                let by = if vals.len() > 10 {
+                    format!("{k} (its first 10 values of {})", vals.len())
+                } else {
+                    k
+                };
+                (g, by)
             }
             None => (
                 vec![(
@@ -659,6 +683,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 .collect(),
             None => vec![(String::new(), scored.iter().collect())],
         };
+        let mut taken = std::collections::HashSet::new();
         for (v, rs) in &parts {
             let curves: Vec<(String, Vec<(f64, f64)>)> = sizes
                 .iter()
@@ -674,7 +699,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
             let (stem, of) = if v.is_empty() {
                 ("survival-robots".to_string(), String::new())
             } else {
-                (format!("survival-robots-{}", slug(v)), format!(", {v}"))
+                (
+                    format!("survival-robots-{}", unique_slug(v, &mut taken)),
+                    format!(", {v}"),
+                )
             };
             let p = LinePlot {
                 title: format!("{name}: completion time by swarm size{of}"),
@@ -871,12 +899,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
             let m = (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64);
             cells.push(fmt_opt(m, 3));
         }
-        let cells: Vec<String> = cells.iter().map(|c| c.replace('|', "\\|")).collect();
+        // A value may hold `|` or a line break: neither may end the table's row.
+        let cells: Vec<String> = cells
+            .iter()
+            .map(|c| c.replace('|', "\\|").replace(['\r', '\n'], " "))
+            .collect();
         let _ = writeln!(md, "| {} |", cells.join(" | "));
     }
     let _ = writeln!(
         md,
-        "\nMedian time: completion time by which half of the trials had succeeded (failures censored; – if fewer than half did). Path efficiency: {eff_desc}, mean.\n"
+        "\nMedian time: completion time by which half of the trials had succeeded (failures censored; – unless more than half did). Path efficiency: {eff_desc}, mean.\n"
     );
     let _ = writeln!(md, "## Figures\n");
     for (f, title) in &figures {

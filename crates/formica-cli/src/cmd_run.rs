@@ -542,7 +542,7 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
             100.0 * rate,
             100.0 * lo,
             100.0 * hi,
-            summary.median_time_s.map_or("n/a (under half succeeded)".into(), |t| format!("{t:.1} s")),
+            summary.median_time_s.map_or("n/a (half or fewer succeeded)".into(), |t| format!("{t:.1} s")),
             summary.mean_path_efficiency.map_or("n/a (none succeeded)".into(), |e| format!("{e:.3} (successes)"))
         );
     } else {

@@ -92,14 +92,18 @@ pub fn script(exe: &Path, sweep: &Path, db_dir: &Path, name: &str, a: &Args) -> 
     s += "#SBATCH --ntasks=1\n";
     s += &format!("#SBATCH --cpus-per-task={}\n", a.cpus);
     s += &format!("#SBATCH --time={}\n", a.time);
-    s += &format!("#SBATCH --output={}/slurm-%A_%a.out\n", db_dir.display());
+    // sbatch reads `#SBATCH` lines as it reads its command line: a path with spaces is quoted.
+    s += &format!(
+        "#SBATCH --output=\"{}/slurm-%A_%a.out\"\n",
+        db_dir.display()
+    );
     for extra in &a.sbatch {
         s += &format!("#SBATCH {extra}\n");
     }
     s += &format!(
         "# Written by `formica slurm`: task K runs shard K/{n} of the sweep into its own store.\n\
          # Merge them afterwards: formica merge ALL.db {}/shard-*.db\n",
-        db_dir.display()
+        sh(&db_dir.display().to_string())
     );
     s += "set -euo pipefail\n";
     s += &format!("mkdir -p {}\n", sh(&db_dir.display().to_string()));
@@ -121,6 +125,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         return Err(CliError::Input("--cpus: expected at least 1".into()));
     }
     check_time(&a.time)?;
+
     if let Some(bad) = a.sbatch.iter().find(|x| x.contains(['\n', '\r'])) {
         return Err(CliError::Input(format!(
             "--sbatch `{}`: one option per --sbatch, without line breaks",
@@ -148,6 +153,14 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .clone()
             .unwrap_or_else(|| dir.join(format!("{stem}-shards"))),
     )?;
+    let shown = db_dir.display().to_string();
+    if shown.contains(['"', '\n', '\r']) {
+        return Err(CliError::Input(format!(
+            "the shards' folder `{}` holds a double quote or a line break, which the script's \
+             #SBATCH lines cannot hold: give another with --db-dir",
+            shown.escape_debug()
+        )));
+    }
     let script_path = a
         .script
         .clone()

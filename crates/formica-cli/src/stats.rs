@@ -35,7 +35,8 @@ pub fn mean_of(results: &[RunResult], f: impl Fn(&RunResult) -> Option<f64>) -> 
 }
 
 /// Median completion time with failures censored at +infinity: the time by which half of all
-/// trials had succeeded, or `None` if fewer than half did.
+/// trials had succeeded, or `None` unless more than half did (with exactly half, the middle of
+/// the sample is a failure).
 pub fn censored_median(results: &[RunResult]) -> Option<f64> {
     let mut times: Vec<f64> = results
         .iter()
@@ -69,7 +70,7 @@ pub struct Summary {
     pub success_rate: Option<f64>,
     /// Wilson 95 % interval of the success rate (null as `success_rate`).
     pub success_ci95: Option<[f64; 2]>,
-    /// Median completion time, failures censored (null if under half succeeded, or no
+    /// Median completion time, failures censored (null unless more than half succeeded, or no
     /// success rule).
     pub median_time_s: Option<f64>,
     /// Mean path efficiency of the successful trials, as reports give it (null as

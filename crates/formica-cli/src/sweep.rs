@@ -254,6 +254,13 @@ impl Sweep {
             let (line, col) = line_col(&text, pos);
             CliError::Input(format!("{file}:{line}:{col}: {m}"))
         };
+        if let Some(n) = &spec.name {
+            if n.trim().is_empty() || n.chars().any(char::is_control) {
+                return Err(input(format!(
+                    "`name`: expected a one-line text naming the study in reports, got {n:?}"
+                )));
+            }
+        }
         let seeds = parse_seeds(&spec.seeds).map_err(input)?;
         let mut vary = Vec::new();
         flatten_vary("", &spec.vary, &mut vary).map_err(input)?;

@@ -1109,3 +1109,68 @@ fn a_store_without_trials_takes_the_mended_sweep() {
         "{err}"
     );
 }
+
+#[test]
+fn reports_name_figures_of_long_or_non_ascii_values_apart() {
+    // A 300-character value made a file name too long, and the report failed; `friction α`
+    // and `friction β` both became `friction--`, so one heading showed the other's curves.
+    let dir = tmp("figure-names");
+    let long = "a".repeat(300);
+    let text = format!(
+        r#"name = "figure names"
+scenario = "{}"
+seeds = "1..2"
+duration_s = 60
+
+[set]
+"objects.0.at" = [1.5, 0.0]
+
+[vary]
+"robots.0.count" = [6, 12]
+
+[[cases]]
+label = "friction α"
+"objects.0.floor_mu" = 0.006
+
+[[cases]]
+label = "friction β"
+"objects.0.floor_mu" = 0.003
+
+[[cases]]
+label = "{long}"
+"objects.0.floor_mu" = 0.004
+"#,
+        repo("scenarios/seed-transport.toml")
+            .display()
+            .to_string()
+            .replace('\\', "/")
+    );
+    let file = dir.join("names.toml");
+    std::fs::write(&file, text).unwrap();
+    let db = dir.join("names.db");
+    ok(sweep(&file, &db, &[]));
+    let out = dir.join("report");
+    let summary = report_without_gallery(&db, &out);
+    let figures: Vec<&str> = summary
+        .lines()
+        .filter_map(|l| l.split("](survival-robots-").nth(1))
+        .collect();
+    assert_eq!(figures.len(), 3, "{summary}");
+    let mut names = figures.clone();
+    names.sort_unstable();
+    names.dedup();
+    assert_eq!(names.len(), 3, "{figures:?}");
+    assert!(figures.iter().all(|f| f.len() < 100), "{figures:?}");
+    // A sweep name must fit on one line (it heads the report).
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        std::fs::read_to_string(&file)
+            .unwrap()
+            .replace("name = \"figure names\"", "name = \"x\\n# heading\""),
+    )
+    .unwrap();
+    let o = sweep(&bad, &dir.join("bad.db"), &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("one-line text"));
+}
