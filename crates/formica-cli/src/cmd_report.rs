@@ -222,7 +222,13 @@ pub fn kaplan_meier(rs: &[&RunResult]) -> Vec<(f64, f64)> {
         }
         at_risk -= d + c;
     }
-    // Extend to the last finite time seen (censored timeouts included).
+    // Extend to the last time any trial ended (censored timeouts and wall hits included), so
+    // that a set whose every trial hit a wall is drawn flat, not left out.
+    let last_t = rs
+        .iter()
+        .map(|r| r.sim_time_s)
+        .filter(|t| t.is_finite())
+        .fold(last_t, f64::max);
     if out.last().is_some_and(|p| p.0 < last_t) {
         out.push((last_t, s));
     }
@@ -914,11 +920,18 @@ pub fn main(a: Args) -> Result<(), CliError> {
     for (f, title) in &figures {
         let _ = writeln!(md, "### {title}\n\n![{title}]({f}.png) ([SVG]({f}.svg))\n");
     }
-    let short_label = |r: &StoredTrial| {
-        r.params
-            .get("label")
-            .and_then(|v| v.as_str())
-            .map_or_else(|| set_label(r), str::to_string)
+    // A case's label, and the varied keys it does not decide (cases x [vary]: each set apart).
+    let short_label = |r: &StoredTrial| match r.params.get("label").and_then(|v| v.as_str()) {
+        Some(l) => std::iter::once(l.to_string())
+            .chain(
+                plotted
+                    .iter()
+                    .filter(|k| *k != "label" && r.params.contains_key(*k))
+                    .map(|k| format!("{k}={}", value(r, k))),
+            )
+            .collect::<Vec<_>>()
+            .join(", "),
+        None => set_label(r),
     };
     // Failed trials always have their section; trials without a success rule only if any.
     for (listed, trials) in [(Listed::Failed, &scored), (Listed::Unjudged, &endings)] {
@@ -1050,5 +1063,9 @@ mod tests {
         assert!((km[1].1 - 0.75).abs() < 1e-12);
         assert!((km[2].1 - 0.375).abs() < 1e-12);
         assert_eq!(km.last().map(|p| p.0), Some(30.0));
+        // Only wall hits: a flat line to the last of them.
+        let walls = [r(Outcome::Wall, 12.0), r(Outcome::Wall, 40.0)];
+        let refs: Vec<&RunResult> = walls.iter().collect();
+        assert_eq!(kaplan_meier(&refs), vec![(0.0, 1.0), (40.0, 1.0)]);
     }
 }

@@ -1174,3 +1174,52 @@ label = "{long}"
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("one-line text"));
 }
+
+#[test]
+fn failure_sections_of_cases_times_vary_name_each_set() {
+    // Cases x [vary]: the sections of failed trials were headed by the case label alone, two
+    // sections for each label that could not be told apart.
+    let dir = tmp("cases-vary-failures");
+    let text = format!(
+        r#"name = "cases by vary"
+scenario = "{}"
+seeds = "1..2"
+duration_s = 3
+
+[vary]
+"robots.0.count" = [4, 8]
+
+[[cases]]
+label = "light"
+"objects.0.mass" = 5.0
+
+[[cases]]
+label = "heavy"
+"objects.0.mass" = 80.0
+"#,
+        repo("scenarios/seed-transport.toml")
+            .display()
+            .to_string()
+            .replace('\\', "/")
+    );
+    let file = dir.join("cv.toml");
+    std::fs::write(&file, text).unwrap();
+    let db = dir.join("cv.db");
+    ok(sweep(&file, &db, &[]));
+    let summary = report_without_gallery(&db, &dir.join("report"));
+    let headings: Vec<&str> = summary
+        .lines()
+        .filter(|l| l.starts_with("### light") || l.starts_with("### heavy"))
+        .collect();
+    assert_eq!(headings.len(), 4, "{summary}");
+    assert!(
+        headings
+            .iter()
+            .any(|h| h.starts_with("### light, robots.0.count=4 (")),
+        "{headings:?}"
+    );
+    let mut distinct = headings.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    assert_eq!(distinct.len(), 4, "{headings:?}");
+}
