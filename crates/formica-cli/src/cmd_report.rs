@@ -817,6 +817,16 @@ pub fn main(a: Args) -> Result<(), CliError> {
         );
     }
     md.push_str(".\n\n");
+    let grid: Option<usize> = store.meta("grid_trials")?.and_then(|g| g.parse().ok());
+    if let Some(grid) = grid.filter(|g| *g > rows.len()) {
+        let _ = writeln!(
+            md,
+            "**A partial store**: it holds {} of the {grid} trials of its sweep (stopped early, \
+             run with `--limit`, or one shard); `formica sweep` with the same file and store \
+             runs the rest. Everything below covers the trials it holds.\n",
+            rows.len()
+        );
+    }
     let _ = writeln!(
         md,
         "Every trial, one row each: [trials.csv](trials.csv) (the columns of `formica export`).\n"

@@ -403,6 +403,12 @@ impl Store {
                 self.set_meta("sweep", &sweep.file.display().to_string())?;
             }
         }
+        // The grid's size, so that a report can tell a partial store (`--limit`, a stopped
+        // sweep, one shard) from a whole one.
+        self.set_meta(
+            "grid_trials",
+            &(sweep.sets.len() * sweep.seeds.len()).to_string(),
+        )?;
         let mut keys = self.keys()?;
         for k in &sweep.keys {
             if !keys.contains(k) {

@@ -1223,3 +1223,19 @@ label = "heavy"
     distinct.dedup();
     assert_eq!(distinct.len(), 4, "{headings:?}");
 }
+
+#[test]
+fn a_report_of_a_partial_store_says_so() {
+    let dir = tmp("partial-report");
+    let file = write_sweep(&dir, "1..2");
+    let db = dir.join("s.db");
+    ok(sweep(&file, &db, &["--limit", "3"]));
+    let summary = report_without_gallery(&db, &dir.join("part"));
+    assert!(
+        summary.contains("**A partial store**: it holds 3 of the 8 trials of its sweep"),
+        "{summary}"
+    );
+    ok(sweep(&file, &db, &[]));
+    let summary = report_without_gallery(&db, &dir.join("whole"));
+    assert!(!summary.contains("partial store"), "{summary}");
+}
