@@ -105,6 +105,27 @@ pub fn main(a: Args) -> Result<(), CliError> {
             store.ensure_columns(&theirs)?;
             let cols: Vec<String> = theirs.iter().map(|c| ident(c)).collect();
             let cols = cols.join(", ");
+            // A trial stored already with another result is kept as it was: say so.
+            let differing: i64 = store
+                .conn
+                .query_row(
+                    "SELECT COUNT(*) FROM src.trials s JOIN main.trials m
+                         ON s.params = m.params AND s.seed = m.seed
+                     WHERE s.outcome IS NOT m.outcome OR s.sim_time_s IS NOT m.sim_time_s
+                        OR s.goal_distance_m IS NOT m.goal_distance_m
+                        OR s.object_path_m IS NOT m.object_path_m",
+                    [],
+                    |r| r.get(0),
+                )
+                .with_context(|| format!("comparing {} with the merged trials", p.display()))?;
+            if differing > 0 {
+                errln!(
+                    "{}: warning: {differing} trial(s) are already merged with another result \
+                     (same parameters and seed; another build or results format?); the one \
+                     merged first is kept",
+                    p.display()
+                );
+            }
             store
                 .conn
                 .execute_batch(&format!(

@@ -1239,3 +1239,46 @@ fn a_report_of_a_partial_store_says_so() {
     let summary = report_without_gallery(&db, &dir.join("whole"));
     assert!(!summary.contains("partial store"), "{summary}");
 }
+
+#[test]
+fn merge_warns_of_a_trial_stored_twice_with_different_results() {
+    let dir = tmp("merge-differing");
+    let file = write_sweep(&dir, "1..1");
+    let db = dir.join("s.db");
+    ok(sweep(&file, &db, &[]));
+    let tampered = dir.join("t.db");
+    std::fs::copy(&db, &tampered).unwrap();
+    rusqlite::Connection::open(&tampered)
+        .unwrap()
+        .execute(
+            "UPDATE trials SET sim_time_s = sim_time_s + 1 WHERE trial = 0",
+            [],
+        )
+        .unwrap();
+    let merged = dir.join("m.db");
+    let _ = std::fs::remove_file(&merged);
+    let out = formica()
+        .arg("merge")
+        .arg(&merged)
+        .arg(&db)
+        .arg(&tampered)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("1 trial(s) are already merged with another result"),
+        "{err}"
+    );
+    // The same store twice: nothing differs, nothing to say.
+    let again = dir.join("m2.db");
+    let _ = std::fs::remove_file(&again);
+    let out = formica()
+        .arg("merge")
+        .arg(&again)
+        .arg(&db)
+        .arg(&db)
+        .output()
+        .unwrap();
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
+}
