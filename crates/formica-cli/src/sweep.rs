@@ -125,6 +125,21 @@ pub fn canonical_json(v: &toml::Value) -> String {
     }
 }
 
+/// `v` with every whole float written as an integer, so that `50` and `50.0` (which set a
+/// scenario alike) compare equal in the check for values listed twice.
+fn same_number(v: &toml::Value) -> toml::Value {
+    match v {
+        toml::Value::Float(f) if f.fract() == 0.0 && f.abs() < 9.0e15 => {
+            toml::Value::Integer(*f as i64)
+        }
+        toml::Value::Array(a) => toml::Value::Array(a.iter().map(same_number).collect()),
+        toml::Value::Table(t) => {
+            toml::Value::Table(t.iter().map(|(k, x)| (k.clone(), same_number(x))).collect())
+        }
+        other => other.clone(),
+    }
+}
+
 /// Canonical JSON of a parameter set.
 pub fn params_json(p: &Params) -> String {
     let t: toml::Table = p.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
@@ -359,7 +374,7 @@ impl Sweep {
             if let Some((i, v)) = values
                 .iter()
                 .enumerate()
-                .find(|(_, v)| !seen.insert(v.to_string()))
+                .find(|(_, v)| !seen.insert(canonical_json(&same_number(v))))
             {
                 return Err(input(format!(
                     "`{k}`: the value {v} is listed twice (item {} of the list); each value \

@@ -637,6 +637,11 @@ fn a_sweep_that_sets_the_seed_or_the_duration_twice_is_refused_at_the_line() {
             "the value 3 is listed twice",
         ),
         (
+            "seeds = \"1\"\n[vary]\n\"objects.0.mass\" = [50, 50.0]\n",
+            4,
+            "the value 50.0 is listed twice",
+        ),
+        (
             "seeds = \"1\"\n# [[cases]] in a comment\n[[cases]]\n\"robots.0.count\" = 3\n\n  [[cases]]\n\"robots.0.count\" = 3\n",
             7,
             "appears twice",
