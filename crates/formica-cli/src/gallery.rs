@@ -293,7 +293,9 @@ pub fn trials_section(
             mine.len(),
             kinds.join(", ")
         );
-        md.push_str("| trial | seed | outcome | replay |\n|---|---|---|---|\n");
+        if list > 0 {
+            md.push_str("| trial | seed | outcome | replay |\n|---|---|---|---|\n");
+        }
         for f in mine.iter().take(list) {
             let r = &f.row.result;
             let _ = writeln!(
