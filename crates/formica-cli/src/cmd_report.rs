@@ -764,7 +764,17 @@ pub fn main(a: Args) -> Result<(), CliError> {
             colors.push(ci);
         }
         let p = LinePlot {
-            title: format!("{name}: object trajectories ({} trials)", trajs.len()),
+            title: {
+                let all = store.trajectory_count()?;
+                if all > trajs.len() {
+                    format!(
+                        "{name}: object trajectories ({} of {all} trials, every set alike)",
+                        trajs.len()
+                    )
+                } else {
+                    format!("{name}: object trajectories ({} trials)", trajs.len())
+                }
+            },
             x_desc: "x (m)".into(),
             y_desc: "y (m)".into(),
             curves,

@@ -736,12 +736,17 @@ impl Store {
         Ok(out)
     }
 
-    /// Stored trajectories: (params JSON, seed, samples).
+    /// Stored trajectories, at most `limit`, taken round the parameter sets: (params JSON,
+    /// seed, samples).
     pub fn trajectories(&self, limit: usize) -> Result<Vec<StoredTrajectory>, CliError> {
         let mut st = self
             .conn
             .prepare(
-                "SELECT params, seed, samples FROM trajectories ORDER BY params, seed LIMIT ?1",
+                // Round the parameter sets: each one's first seed, then each one's second, ...,
+                // so that a limit below the count samples every set alike.
+                "SELECT params, seed, samples FROM (SELECT params, seed, samples, ROW_NUMBER() \
+                 OVER (PARTITION BY params ORDER BY seed) AS k FROM trajectories) \
+                 ORDER BY k, params LIMIT ?1",
             )
             .with_context(|| self.at("reading trajectories"))?;
         let rows = st
@@ -761,6 +766,15 @@ impl Store {
             out.push((p, s, samples));
         }
         Ok(out)
+    }
+
+    /// How many trajectories the store holds.
+    pub fn trajectory_count(&self) -> Result<usize, CliError> {
+        let n: i64 = self
+            .conn
+            .query_row("SELECT COUNT(*) FROM trajectories", [], |r| r.get(0))
+            .with_context(|| self.at("counting trajectories"))?;
+        Ok(n as usize)
     }
 
     /// Keeps a parameter set's scenario (as run) under its digest.
@@ -923,6 +937,34 @@ mod tests {
                 "{v}"
             );
         }
+    }
+
+    #[test]
+    fn a_limit_on_trajectories_takes_every_parameter_set_alike() {
+        let dir = std::env::temp_dir().join(format!("formica-traj-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let store = Store::open(&dir.join("t.db")).unwrap();
+        for set in ["a", "b", "c"] {
+            for seed in 1..=4 {
+                store
+                    .conn
+                    .execute(
+                        "INSERT INTO trajectories (params, seed, samples) VALUES (?1, ?2, '[]')",
+                        rusqlite::params![set, seed],
+                    )
+                    .unwrap();
+            }
+        }
+        let got: Vec<(String, u64)> = store
+            .trajectories(4)
+            .unwrap()
+            .into_iter()
+            .map(|(p, s, _)| (p, s))
+            .collect();
+        // Each set's first seed, then the second of the first set (by params order).
+        let want = [("a", 1), ("b", 1), ("c", 1), ("a", 2)].map(|(p, s)| (p.to_string(), s));
+        assert_eq!(got, want);
+        assert_eq!(store.trajectory_count().unwrap(), 12);
     }
 
     #[test]
