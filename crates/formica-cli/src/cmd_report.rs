@@ -63,12 +63,47 @@ impl Args {
     }
 }
 
-/// A short label of a parameter value.
+thread_local! {
+    /// Scenario file stems that name more than one file among the report's trials
+    /// (`a/seed-transport.toml` and `b/seed-transport.toml`): those are labelled by path.
+    static SHARED_STEMS: std::cell::RefCell<std::collections::HashSet<String>> =
+        std::cell::RefCell::default();
+}
+
+/// Notes which scenario stems of `rows` name more than one file, for [`label`].
+fn note_shared_stems(rows: &[StoredTrial]) {
+    let mut paths: HashMap<String, std::collections::HashSet<&str>> = HashMap::new();
+    for r in rows {
+        if let Some(serde_json::Value::String(s)) = r.params.get("scenario") {
+            let stem = Path::new(s)
+                .file_stem()
+                .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned());
+            paths.entry(stem).or_default().insert(s);
+        }
+    }
+    SHARED_STEMS.with(|shared| {
+        *shared.borrow_mut() = paths
+            .into_iter()
+            .filter(|(_, p)| p.len() > 1)
+            .map(|(stem, _)| stem)
+            .collect();
+    });
+}
+
+/// A short label of a parameter value (a scenario by its file's stem, or its path where two
+/// files share the stem).
 fn label(key: &str, v: &serde_json::Value) -> String {
     match v {
-        serde_json::Value::String(s) if key == "scenario" => Path::new(s)
-            .file_stem()
-            .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned()),
+        serde_json::Value::String(s) if key == "scenario" => {
+            let stem = Path::new(s)
+                .file_stem()
+                .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned());
+            if SHARED_STEMS.with(|shared| shared.borrow().contains(&stem)) {
+                s.clone()
+            } else {
+                stem
+            }
+        }
         serde_json::Value::String(s) => s.clone(),
         other => other.to_string(),
     }
@@ -381,6 +416,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
         )));
     }
     let name = store.meta("name")?.unwrap_or_else(|| "sweep".into());
+    note_shared_stems(&rows);
     // Trials that can succeed: success rates, survival curves and failed trials count these
     // only; the others (static filling, `endings`) are judged by their filling metrics.
     let unjudged = sets_without_success_rule(&a.db, &rows);

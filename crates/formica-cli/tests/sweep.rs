@@ -1287,3 +1287,34 @@ fn merge_warns_of_a_trial_stored_twice_with_different_results() {
         .unwrap();
     assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
 }
+
+#[test]
+fn scenarios_of_one_file_name_in_two_folders_stay_apart_in_reports() {
+    // Both were labelled `seed-transport`: one category, one row label, their rates pooled.
+    let dir = tmp("same-stem");
+    for (folder, mass) in [("light", "5.0"), ("heavy", "500.0")] {
+        std::fs::create_dir_all(dir.join(folder)).unwrap();
+        let text = std::fs::read_to_string(repo("scenarios/seed-transport.toml"))
+            .unwrap()
+            .replace("mass = 50.0", &format!("mass = {mass}"));
+        std::fs::write(dir.join(folder).join("seed-transport.toml"), text).unwrap();
+    }
+    let file = dir.join("stems.toml");
+    std::fs::write(
+        &file,
+        "name = \"stems\"\nseeds = \"1..2\"\nduration_s = 5\n[vary]\n\
+         scenario = [\"light/seed-transport.toml\", \"heavy/seed-transport.toml\"]\n",
+    )
+    .unwrap();
+    let db = dir.join("stems.db");
+    ok(sweep(&file, &db, &[]));
+    let summary = report_without_gallery(&db, &dir.join("report"));
+    assert!(
+        summary.contains("| light/seed-transport.toml |"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("| heavy/seed-transport.toml |"),
+        "{summary}"
+    );
+}
