@@ -356,20 +356,17 @@ impl Sim {
         for i in 0..n {
             let (left, right) = (wheels[2 * i], wheels[2 * i + 1]);
             check_wheels(left, right, || format!("set_actions, robot {i}"))?;
+            let at_robot = |e| {
+                Python::attach(|py| {
+                    crate::controllers::prefix(py, e, &format!("set_actions, robot {i}"))
+                })
+            };
             let led = match &leds {
-                Some(c) => color_of_code(c[i]).map_err(|e| {
-                    Python::attach(|py| {
-                        crate::controllers::prefix(py, e, &format!("set_actions, robot {i}"))
-                    })
-                })?,
+                Some(c) => color_of_code(c[i]).map_err(at_robot)?,
                 None => Color::Off,
             };
             let attach = match &attach {
-                Some(c) => attach_of_code(c[i]).map_err(|e| {
-                    Python::attach(|py| {
-                        crate::controllers::prefix(py, e, &format!("set_actions, robot {i}"))
-                    })
-                })?,
+                Some(c) => attach_of_code(c[i]).map_err(at_robot)?,
                 None => formica::controller::AttachCommand::Keep,
             };
             out.push(Actuation {
@@ -468,11 +465,16 @@ impl SimCell {
     /// Locks it (waiting while another thread holds it); a world `broken` by an earlier error
     /// is refused.
     fn lock(&self) -> PyResult<Held<'_>> {
+        self.lock_whole("this World", "build a new one")
+    }
+
+    /// [`SimCell::lock`], its refusal naming the world (`which`) and how to rebuild it.
+    fn lock_whole(&self, which: &str, remedy: &str) -> PyResult<Held<'_>> {
         let g = self.lock_any()?;
         if g.broken {
-            return Err(PyRuntimeError::new_err(
-                "this World stopped half-way through a tick at an earlier error; build a new one",
-            ));
+            return Err(PyRuntimeError::new_err(format!(
+                "{which} stopped half-way through a tick at an earlier error; {remedy}"
+            )));
         }
         Ok(g)
     }
@@ -979,14 +981,10 @@ impl PyWorlds {
             .iter()
             .enumerate()
             .map(|(i, m)| {
-                let g = m.lock_any()?;
-                if g.broken {
-                    return Err(PyRuntimeError::new_err(format!(
-                        "world {i} stopped half-way through a tick at an earlier error; \
-                         reset({i}, seed) rebuilds it"
-                    )));
-                }
-                Ok(g)
+                m.lock_whole(
+                    &format!("world {i}"),
+                    &format!("reset({i}, seed) rebuilds it"),
+                )
             })
             .collect()
     }

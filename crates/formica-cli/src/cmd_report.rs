@@ -70,15 +70,19 @@ thread_local! {
         std::cell::RefCell::default();
 }
 
+/// A scenario path's file stem (`qm-open` for `../scenarios/qm-open.toml`).
+fn stem(path: &str) -> String {
+    Path::new(path)
+        .file_stem()
+        .map_or_else(|| path.to_string(), |x| x.to_string_lossy().into_owned())
+}
+
 /// Notes which scenario stems of `rows` name more than one file, for [`label`].
 fn note_shared_stems(rows: &[StoredTrial]) {
     let mut paths: HashMap<String, std::collections::HashSet<&str>> = HashMap::new();
     for r in rows {
         if let Some(serde_json::Value::String(s)) = r.params.get("scenario") {
-            let stem = Path::new(s)
-                .file_stem()
-                .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned());
-            paths.entry(stem).or_default().insert(s);
+            paths.entry(stem(s)).or_default().insert(s);
         }
     }
     SHARED_STEMS.with(|shared| {
@@ -95,13 +99,11 @@ fn note_shared_stems(rows: &[StoredTrial]) {
 fn label(key: &str, v: &serde_json::Value) -> String {
     match v {
         serde_json::Value::String(s) if key == "scenario" => {
-            let stem = Path::new(s)
-                .file_stem()
-                .map_or_else(|| s.clone(), |x| x.to_string_lossy().into_owned());
-            if SHARED_STEMS.with(|shared| shared.borrow().contains(&stem)) {
+            let short = stem(s);
+            if SHARED_STEMS.with(|shared| shared.borrow().contains(&short)) {
                 s.clone()
             } else {
-                stem
+                short
             }
         }
         serde_json::Value::String(s) => s.clone(),

@@ -44,14 +44,14 @@ impl Replay {
     /// End-of-run fields the store has no column for (added after it was written) are left
     /// out; [`Replay::not_compared`] names them.
     pub fn differences(&self, got: &RunResult) -> Vec<String> {
-        formica::experiment::replay_differences(&self.stored.result, got, &self.columns).0
+        formica::experiment::replay_differences(&self.stored.result, got, &self.columns)
     }
 
     /// `got`'s end-of-run fields that the store cannot hold, so a replay does not compare them:
     /// ` (not in the store, not compared: cavity_centres)`, or empty.
     pub fn not_compared(&self, got: &RunResult) -> String {
-        let (_, unstored) =
-            formica::experiment::replay_differences(&self.stored.result, got, &self.columns);
+        let unstored =
+            formica::experiment::unstored_fields(&self.stored.result, got, &self.columns);
         if unstored.is_empty() {
             String::new()
         } else {

@@ -237,25 +237,32 @@ pub fn result_differences(a: &RunResult, b: &RunResult) -> Vec<String> {
         .collect()
 }
 
-/// [`result_differences`] for the replay `got` of a stored trial, leaving out `got`'s end-of-run
-/// fields that the store has no column for (`columns`): fields added to the results after the
-/// store was written, which it could not hold. Also returns those fields' names.
+/// `got`'s end-of-run fields that a store with end-of-run `columns` cannot hold, and that
+/// `stored` therefore lacks: fields added to the results after the store was written.
+pub fn unstored_fields(
+    stored: &RunResult,
+    got: &RunResult,
+    columns: &std::collections::BTreeSet<String>,
+) -> Vec<String> {
+    got.extra
+        .keys()
+        .filter(|k| !columns.contains(*k) && !stored.extra.contains_key(*k))
+        .cloned()
+        .collect()
+}
+
+/// [`result_differences`] for the replay `got` of a stored trial, leaving out the fields the
+/// store could not hold ([`unstored_fields`]).
 pub fn replay_differences(
     stored: &RunResult,
     got: &RunResult,
     columns: &std::collections::BTreeSet<String>,
-) -> (Vec<String>, Vec<String>) {
+) -> Vec<String> {
     let mut got = got.clone();
-    let unstored: Vec<String> = got
-        .extra
-        .keys()
-        .filter(|k| !columns.contains(*k) && !stored.extra.contains_key(*k))
-        .cloned()
-        .collect();
-    for k in &unstored {
-        got.extra.remove(k);
+    for k in unstored_fields(stored, &got, columns) {
+        got.extra.remove(&k);
     }
-    (result_differences(stored, &got), unstored)
+    result_differences(stored, &got)
 }
 
 /// One recorded sample of a trajectory.

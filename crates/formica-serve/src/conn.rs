@@ -149,8 +149,7 @@ impl Slots {
                     .set_write_timeout(Some(std::time::Duration::from_millis(20)));
                 let _ = crate::http::write_response(
                     &mut old.stream,
-                    &crate::http::Response::error(503, "server busy, try again")
-                        .with_header("Retry-After", "1"),
+                    &crate::http::Response::come_back("server busy, try again"),
                     false,
                 );
                 let _ = old.stream.shutdown(Shutdown::Both);

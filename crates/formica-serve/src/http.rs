@@ -69,6 +69,12 @@ impl Response {
         }
     }
 
+    /// 503 with `Retry-After: 1`: the server cannot take this request now, and the client
+    /// should send it again.
+    pub fn come_back(message: &str) -> Self {
+        Self::error(503, message).with_header("Retry-After", "1")
+    }
+
     /// Adds a header.
     pub fn with_header(mut self, name: &'static str, value: impl Into<String>) -> Self {
         self.headers.push((name, value.into()));

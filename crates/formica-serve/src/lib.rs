@@ -356,7 +356,7 @@ fn busy(counters: &Counters, mut s: TcpStream) {
     let _ = std::io::Read::read(&mut s, &mut sink);
     let _ = http::write_response(
         &mut s,
-        &Response::error(503, "server busy, try again").with_header("Retry-After", "1"),
+        &Response::come_back("server busy, try again"),
         false,
     );
     let _ = s.shutdown(std::net::Shutdown::Write);
@@ -449,13 +449,27 @@ fn control(sim: &mut Sim, c: Control) -> Result<(), Response> {
 
 /// The answer when the simulation thread cannot take or answer a command in time.
 fn sim_busy() -> Response {
-    Response::error(503, "the simulation is busy, try again").with_header("Retry-After", "1")
+    Response::come_back("the simulation is busy, try again")
 }
 
 /// Sends a command to the simulation thread and waits for its answer.
 fn ask<T>(shared: &Shared, make: impl FnOnce(SyncSender<T>) -> Cmd) -> Result<T, Response> {
+    answer(send(shared, make)?)
+}
+
+/// Queues a command for the simulation thread (503 if its queue is full); its answer comes on
+/// the receiver.
+fn send<T>(
+    shared: &Shared,
+    make: impl FnOnce(SyncSender<T>) -> Cmd,
+) -> Result<Receiver<T>, Response> {
     let (tx, rx) = mpsc::sync_channel(1);
     shared.cmd.try_send(make(tx)).map_err(|_| sim_busy())?;
+    Ok(rx)
+}
+
+/// The simulation thread's answer to a queued command, waited for at most [`SIM_WAIT`].
+fn answer<T>(rx: Receiver<T>) -> Result<T, Response> {
     rx.recv_timeout(SIM_WAIT).map_err(|_| sim_busy())
 }
 
@@ -687,19 +701,17 @@ fn api_post(shared: &Shared, req: &Request) -> Result<Response, Response> {
     };
     let step = matches!(c, Control::Step(_));
     if step && shared.counters.stepping.swap(true, Ordering::SeqCst) {
-        return Err(
-            Response::error(503, "a step is already under way, try again")
-                .with_header("Retry-After", "1"),
-        );
+        return Err(Response::come_back(
+            "a step is already under way, try again",
+        ));
     }
-    let (tx, rx) = mpsc::sync_channel(1);
-    if shared.cmd.try_send(Cmd::Control(c, q, tx)).is_err() {
+    let rx = send(shared, |tx| Cmd::Control(c, q, tx)).inspect_err(|_| {
+        // Never queued: the simulation thread will not clear the flag.
         if step {
             shared.counters.stepping.store(false, Ordering::SeqCst);
         }
-        return Err(sim_busy());
-    }
-    let body = rx.recv_timeout(SIM_WAIT).map_err(|_| sim_busy())??;
+    })?;
+    let body = answer(rx)??;
     Ok(Response::ok(JSON, body))
 }
 

@@ -616,7 +616,7 @@ impl Sim {
                 let active = r.seed == self.seed;
                 let ended = self.run.outcome().is_some();
                 let differences = if active && ended {
-                    formica::experiment::replay_differences(&r.stored, &result, &r.columns).0
+                    formica::experiment::replay_differences(&r.stored, &result, &r.columns)
                 } else {
                     Vec::new()
                 };
