@@ -11,7 +11,7 @@
 //! answered: at worst it evicts the oldest idle one.
 
 use std::collections::VecDeque;
-use std::io::Read;
+use std::io::{Read, Write};
 use std::net::{Shutdown, TcpStream};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -27,6 +27,18 @@ impl<'a> Deadline<'a> {
     /// Reads from `stream` until `deadline` at the latest.
     pub fn new(stream: &'a TcpStream, deadline: Instant) -> Self {
         Self { stream, deadline }
+    }
+}
+
+impl Write for Deadline<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let mut s = self.stream;
+        s.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        let mut s = self.stream;
+        s.flush()
     }
 }
 

@@ -172,8 +172,9 @@ fn bad(status: u16, msg: &str) -> ReadError {
     ReadError::Bad(Response::error(status, msg))
 }
 
-/// Reads and parses one request from `stream` (whose read timeout bounds the wait).
-pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
+/// Reads and parses one request from `stream` (whose read timeout bounds the wait); writes
+/// only the interim `100 Continue` that a client sending `Expect: 100-continue` waits for.
+pub fn read_request(stream: &mut (impl Read + Write)) -> Result<Request, ReadError> {
     let mut buf: Vec<u8> = Vec::with_capacity(1024);
     let mut chunk = [0u8; 2048];
     let (head_end, body_start) = loop {
@@ -245,6 +246,7 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
     let mut host = None;
     let mut origin = None;
     let mut content_length: Option<usize> = None;
+    let mut expect_continue = false;
     for h in lines {
         let Some((name, value)) = h.split_once(':') else {
             return Err(bad(400, "malformed header line"));
@@ -271,6 +273,11 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
                 return Err(bad(400, "conflicting Content-Length headers"));
             }
             content_length = Some(n);
+        } else if name.eq_ignore_ascii_case("expect") {
+            if !value.eq_ignore_ascii_case("100-continue") {
+                return Err(bad(417, "only Expect: 100-continue is understood"));
+            }
+            expect_continue = version == "HTTP/1.1";
         } else if name.eq_ignore_ascii_case("transfer-encoding") {
             return Err(bad(501, "Transfer-Encoding is not supported"));
         }
@@ -280,7 +287,17 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
     if body_len > MAX_BODY {
         return Err(bad(413, "request body too large"));
     }
+    // RFC 9112, 3.2: an HTTP/1.1 request without Host is answered 400.
+    if version == "HTTP/1.1" && host.is_none() {
+        return Err(bad(400, "an HTTP/1.1 request needs a Host header"));
+    }
     let mut have = buf.len() - body_start;
+    if expect_continue && have < body_len {
+        // The client waits for this (curl: 1 s) before it sends the body.
+        stream
+            .write_all(b"HTTP/1.1 100 Continue\r\n\r\n")
+            .map_err(|_| ReadError::Gone)?;
+    }
     while have < body_len {
         match stream.read(&mut chunk) {
             Ok(0) => return Err(bad(400, "incomplete request body")),
@@ -342,8 +359,40 @@ pub fn write_response(
 mod tests {
     use super::*;
 
+    /// A client that has sent `input` and reads what the server writes before it answers.
+    struct Client<'a> {
+        input: &'a [u8],
+        output: Vec<u8>,
+    }
+
+    impl Read for Client<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            self.input.read(buf)
+        }
+    }
+
+    impl Write for Client<'_> {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.output.write(buf)
+        }
+
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// The request parsed and what was written back before the answer.
+    fn exchange(s: &str) -> (Result<Request, ReadError>, String) {
+        let mut c = Client {
+            input: s.as_bytes(),
+            output: Vec::new(),
+        };
+        let r = read_request(&mut c);
+        (r, String::from_utf8(c.output).expect("ASCII"))
+    }
+
     fn parse(s: &str) -> Result<Request, ReadError> {
-        read_request(&mut s.as_bytes())
+        exchange(s).0
     }
 
     fn status(s: &str) -> u16 {
@@ -378,7 +427,7 @@ mod tests {
         assert_eq!(status("GET http://x/ HTTP/1.1\r\n\r\n"), 400);
         assert_eq!(status("GET /a\u{e9} HTTP/1.1\r\n\r\n"), 400);
         assert_eq!(status("GET / HTTP/1.1\r\nNoColon\r\n\r\n"), 400);
-        assert_eq!(status("GET /?a=%zz HTTP/1.1\r\n\r\n"), 400);
+        assert_eq!(status("GET /?a=%zz HTTP/1.1\r\nHost: h\r\n\r\n"), 400);
         assert_eq!(status("POST / HTTP/1.1\r\nContent-Length: x\r\n\r\n"), 400);
         assert_eq!(
             status("POST / HTTP/1.1\r\nContent-Length: 99999\r\n\r\n"),
@@ -389,7 +438,7 @@ mod tests {
             501
         );
         assert_eq!(
-            status("POST / HTTP/1.1\r\nContent-Length: 10\r\n\r\nabc"),
+            status("POST / HTTP/1.1\r\nHost: h\r\nContent-Length: 10\r\n\r\nabc"),
             400
         );
         let big = format!("GET / HTTP/1.1\r\nX: {}\r\n\r\n", "a".repeat(MAX_HEAD));
@@ -399,6 +448,46 @@ mod tests {
         assert_eq!(
             status("POST / HTTP/1.1\r\nOrigin: http://a\r\nOrigin: http://b\r\n\r\n"),
             400
+        );
+    }
+
+    #[test]
+    fn http_1_1_needs_a_host_and_1_0_does_not() {
+        match parse("GET / HTTP/1.1\r\n\r\n") {
+            Err(ReadError::Bad(r)) => {
+                assert_eq!(r.status, 400);
+                let body = String::from_utf8_lossy(&r.body);
+                assert!(body.contains("needs a Host header"), "{body}");
+            }
+            _ => panic!("an HTTP/1.1 request without Host was taken"),
+        }
+        assert_eq!(status("GET / HTTP/1.0\r\n\r\n"), 200);
+        assert_eq!(status("GET / HTTP/1.1\r\nHost: h\r\n\r\n"), 200);
+    }
+
+    #[test]
+    fn expect_100_continue_is_answered_before_the_body_is_read() {
+        let post = "POST /api/step HTTP/1.1\r\nHost: h\r\nExpect: 100-continue\r\nContent-Length: 3\r\n\r\n";
+        // The body came with the head (or there is none): nothing needs saying.
+        let (r, written) = exchange(&format!("{post}abc"));
+        assert!(r.is_ok());
+        assert_eq!(written, "");
+        let (r, written) = exchange(&post.replace("Content-Length: 3", "Content-Length: 0"));
+        assert!(r.is_ok());
+        assert_eq!(written, "");
+        // The client waits with its body: it is told to go on before the body is read.
+        let mut c = Client {
+            input: post.as_bytes(),
+            output: Vec::new(),
+        };
+        assert!(read_request(&mut c).is_err(), "the body never came");
+        assert_eq!(
+            String::from_utf8(c.output).unwrap(),
+            "HTTP/1.1 100 Continue\r\n\r\n"
+        );
+        assert_eq!(
+            status("POST / HTTP/1.1\r\nHost: h\r\nExpect: 200-ok\r\n\r\n"),
+            417
         );
     }
 
