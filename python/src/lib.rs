@@ -48,6 +48,23 @@ pub(crate) fn type_name(v: &Bound<'_, PyAny>) -> String {
         .unwrap_or_default()
 }
 
+/// A number argument that refuses `True` and `False`: Python's bool is an int, so `seed=True`
+/// would run seed 1 and `duration=True` one second.
+pub(crate) struct NotBool<T>(pub(crate) T);
+
+impl<'a, 'py, T: FromPyObject<'a, 'py>> FromPyObject<'a, 'py> for NotBool<T> {
+    type Error = PyErr;
+
+    fn extract(obj: pyo3::Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        if obj.is_instance_of::<pyo3::types::PyBool>() {
+            return Err(pyo3::exceptions::PyTypeError::new_err(
+                "expected a number, got a bool",
+            ));
+        }
+        obj.extract::<T>().map(NotBool).map_err(Into::into)
+    }
+}
+
 /// Leaves the simulation with the Python exception `e`; [`guard`] raises it again.
 pub(crate) fn raise(e: PyErr) -> ! {
     std::panic::panic_any(Raised(e))

@@ -2,7 +2,7 @@
 //! `formica` command itself (`formica.sweep` runs its `sweep` subcommand).
 
 use crate::world::{uses_python, Build};
-use crate::{guard, input_error, result_to_py, scenario_error};
+use crate::{guard, input_error, result_to_py, scenario_error, NotBool};
 use formica::experiment::Run;
 use formica::{Registry, RunResult};
 use formica_cli::provenance::Provenance;
@@ -37,11 +37,13 @@ fn run_attached(
 pub fn run_seeds(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
-    seeds: Vec<u64>,
-    threads: Option<usize>,
-    duration: Option<f32>,
+    seeds: Vec<NotBool<u64>>,
+    threads: Option<NotBool<usize>>,
+    duration: Option<NotBool<f32>>,
     controller: Option<String>,
 ) -> PyResult<Vec<Py<PyAny>>> {
+    let seeds: Vec<u64> = seeds.into_iter().map(|s| s.0).collect();
+    let (threads, duration) = (threads.map(|t| t.0), duration.map(|d| d.0));
     guard(|| {
         let sc = crate::scenario::scenario_of(py, scenario)?;
         let b = Build {

@@ -7,7 +7,7 @@
 use crate::controllers::{
     attach_of_code, check_wheels, codes_of, numbers, slots_dict, PyLayout, Shape,
 };
-use crate::{guard, result_to_py, scenario_error};
+use crate::{guard, result_to_py, scenario_error, NotBool};
 use formica::controller::Actuation;
 use formica::experiment::{Run, RunOptions};
 use formica::scenario::Color;
@@ -530,11 +530,12 @@ impl PyWorld {
     fn new(
         py: Python<'_>,
         scenario: &Bound<'_, PyAny>,
-        seed: Option<u64>,
-        duration: Option<f32>,
+        seed: Option<NotBool<u64>>,
+        duration: Option<NotBool<f32>>,
         controller: Option<String>,
         record: bool,
     ) -> PyResult<Self> {
+        let (seed, duration) = (seed.map(|s| s.0), duration.map(|d| d.0));
         guard(|| {
             let sc = crate::scenario::scenario_of(py, scenario)?;
             let b = Build {
@@ -997,10 +998,12 @@ impl PyWorlds {
     fn new(
         py: Python<'_>,
         scenario: &Bound<'_, PyAny>,
-        seeds: Vec<u64>,
-        duration: Option<f32>,
+        seeds: Vec<NotBool<u64>>,
+        duration: Option<NotBool<f32>>,
         controller: Option<String>,
     ) -> PyResult<Self> {
+        let seeds: Vec<u64> = seeds.into_iter().map(|s| s.0).collect();
+        let duration = duration.map(|d| d.0);
         guard(|| {
             let sc = crate::scenario::scenario_of(py, scenario)?;
             let build = Build {

@@ -337,3 +337,22 @@ def test_another_thread_waits_for_a_step_and_a_controller_may_not_reach_back():
     other = formica.World(SEED_TRANSPORT, controller="reach-back")
     with pytest.raises(RuntimeError, match="being stepped by this very thread"):
         other.step(1)
+
+
+def test_a_bool_is_not_taken_for_a_number():
+    # Python's bool is an int: seed=True ran seed 1 and duration=True one second.
+    for kwargs in ({"seed": True}, {"duration": True}):
+        with pytest.raises(TypeError, match="got a bool"):
+            formica.World(SEED_TRANSPORT, **kwargs)
+    with pytest.raises(TypeError, match="got a bool"):
+        formica.Worlds(SEED_TRANSPORT, [1, False])
+    with pytest.raises(TypeError, match="got a bool"):
+        formica.run(SEED_TRANSPORT, seeds=[1], duration=False)
+    with pytest.raises(TypeError, match="got a bool"):
+        formica.run(SEED_TRANSPORT, seeds=[1], threads=True)
+
+
+def test_the_goal_radius_is_none_without_a_goal():
+    assert formica.World(SEED_TRANSPORT).goal_radius > 0
+    filling = formica.World(SEED_TRANSPORT.replace("seed-transport", "seed-fill-u"))
+    assert filling.goal is None and filling.goal_radius is None

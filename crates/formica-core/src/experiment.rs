@@ -316,8 +316,10 @@ pub fn register(registry: &mut Registry) -> Result<(), RegistryError> {
 }
 
 /// The goal radius of the success rule (m): the scenario's `stop.goal_radius`, else (Queiroz &
-/// MacRae) half the goal size plus half the target object's size, plus 5 cm.
+/// MacRae) half the goal size plus half the target object's size, plus 5 cm; `None` without a
+/// goal light.
 pub fn goal_radius(sc: &Scenario, world: &World) -> Option<f32> {
+    world.goal()?;
     let stop = &sc.spec.stop;
     stop.goal_radius.or_else(|| {
         world.target.map(|t| {
