@@ -109,23 +109,15 @@ pub fn main(a: Args) -> Result<(), CliError> {
             let differing: i64 = store
                 .conn
                 .query_row(
-                    "SELECT COUNT(*) FROM src.trials s JOIN main.trials m
-                         ON s.params = m.params AND s.seed = m.seed
-                     WHERE s.outcome IS NOT m.outcome OR s.sim_time_s IS NOT m.sim_time_s
-                        OR s.goal_distance_m IS NOT m.goal_distance_m
-                        OR s.object_path_m IS NOT m.object_path_m",
+                    &format!(
+                        "SELECT COUNT(*) FROM src.trials s JOIN main.trials m
+                         ON s.params = m.params AND s.seed = m.seed WHERE {DIFFERENT}"
+                    ),
                     [],
                     |r| r.get(0),
                 )
                 .with_context(|| format!("comparing {} with the merged trials", p.display()))?;
-            if differing > 0 {
-                errln!(
-                    "{}: warning: {differing} trial(s) are already merged with another result \
-                     (same parameters and seed; another build or results format?); the one \
-                     merged first is kept",
-                    p.display()
-                );
-            }
+            warn_differing(p, differing as usize);
             store
                 .conn
                 .execute_batch(&format!(
@@ -163,6 +155,22 @@ pub fn main(a: Args) -> Result<(), CliError> {
         a.inputs.len()
     );
     Ok(())
+}
+
+/// SQL condition: stored trials `s` and `m` of one trial (parameters and seed) hold different
+/// results.
+const DIFFERENT: &str = "(s.outcome IS NOT m.outcome OR s.sim_time_s IS NOT m.sim_time_s
+    OR s.goal_distance_m IS NOT m.goal_distance_m OR s.object_path_m IS NOT m.object_path_m)";
+
+/// Warns that `n` trials of input `p` were merged already with another result (kept).
+fn warn_differing(p: &Path, n: usize) {
+    if n > 0 {
+        errln!(
+            "{}: warning: {n} trial(s) are already merged with another result (same parameters \
+             and seed; another build or results format?); the one merged first is kept",
+            p.display()
+        );
+    }
 }
 
 /// Gives every trial that shares its number with another (ordered by parameter set and seed,
@@ -348,8 +356,17 @@ fn into_sweep(a: &Args, file: &Path) -> Result<(), CliError> {
             );
             let tx = store.conn.transaction().context("starting a transaction")?;
             let mut skipped = 0usize;
+            let mut differing = 0usize;
             {
                 let mut ins = tx.prepare(&trials_sql).context("merging trials")?;
+                // For a trial held already: does the input's result differ from it?
+                let mut differs = tx
+                    .prepare(&format!(
+                        "SELECT COUNT(*) FROM src.trials s JOIN main.trials m
+                             ON m.params = ?1 AND m.seed = ?3
+                         WHERE s.params = ?2 AND s.seed = ?3 AND {DIFFERENT}"
+                    ))
+                    .context("comparing with the merged trials")?;
                 let mut side = Vec::new();
                 for table in ["trajectories", "timeseries"] {
                     let col = if table == "trajectories" {
@@ -384,8 +401,17 @@ fn into_sweep(a: &Args, file: &Path) -> Result<(), CliError> {
                                 .map(|k| set.params.get(k).map_or(SqlValue::Null, sql_of)),
                         );
                         vals.push(SqlValue::Text(params.clone()));
-                        ins.execute(rusqlite::params_from_iter(vals.iter()))
+                        let added = ins
+                            .execute(rusqlite::params_from_iter(vals.iter()))
                             .context("merging trials")?;
+                        if added == 0 {
+                            let n: i64 = differs
+                                .query_row(rusqlite::params![set.key, params, *seed as i64], |r| {
+                                    r.get(0)
+                                })
+                                .context("comparing with the merged trials")?;
+                            differing += n as usize;
+                        }
                         for st in &mut side {
                             st.execute(rusqlite::params![set.key, params, *seed as i64])
                                 .context("merging trajectories")?;
@@ -394,6 +420,7 @@ fn into_sweep(a: &Args, file: &Path) -> Result<(), CliError> {
                 }
             }
             tx.commit().context("merging trials")?;
+            warn_differing(p, differing);
             Ok(skipped)
         })?;
     }

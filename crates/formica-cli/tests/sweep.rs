@@ -1286,6 +1286,25 @@ fn merge_warns_of_a_trial_stored_twice_with_different_results() {
         .output()
         .unwrap();
     assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
+    // Merged into the sweep file's store (`--sweep`), the same: warned of once, and only there.
+    let into = dir.join("m3.db");
+    let _ = std::fs::remove_file(&into);
+    let out = formica()
+        .arg("merge")
+        .arg(&into)
+        .arg(&db)
+        .arg(&tampered)
+        .arg("--sweep")
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.matches("warning").count(), 1, "{err}");
+    assert!(
+        err.contains("t.db: warning: 1 trial(s) are already merged with another result"),
+        "{err}"
+    );
 }
 
 #[test]
