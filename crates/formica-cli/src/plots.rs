@@ -128,6 +128,18 @@ where
     } else {
         45
     };
+    // Bars that go on past the top (an infinite quartile: more than a quarter never ended) end
+    // in a triangle, said on the axis.
+    let clipped = p
+        .series
+        .iter()
+        .flat_map(|(_, v)| v.iter().flatten())
+        .any(|e| e.hi > y1);
+    let y_desc = if clipped {
+        format!("{} (triangle: goes on past the top)", p.y_desc)
+    } else {
+        p.y_desc.clone()
+    };
     let mut chart = ChartBuilder::on(root)
         .caption(
             &p.title,
@@ -152,7 +164,7 @@ where
         .x_label_formatter(&fmt)
         .disable_x_mesh()
         .x_desc(if upright { "" } else { p.x_desc.as_str() })
-        .y_desc(&p.y_desc)
+        .y_desc(&y_desc)
         .label_style((FAMILY, 13))
         .axis_desc_style((FAMILY, 15))
         .draw()
@@ -203,6 +215,13 @@ where
                 )
             }))
             .map_err(|e| anyhow!("{e}"))?;
+        chart
+            .draw_series(
+                pts.iter()
+                    .filter(|(_, e)| e.hi > y1)
+                    .map(|(x, _)| TriangleMarker::new((*x, y1), 7, c.filled())),
+            )
+            .map_err(|e| anyhow!("{e}"))?;
         if p.connect && pts.len() > 1 {
             chart
                 .draw_series(LineSeries::new(
@@ -219,12 +238,12 @@ where
             .map_err(|e| anyhow!("{e}"))?;
         if ns > 1 {
             series
-                .label(name.as_str())
+                .label(legend_text(name))
                 .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
         }
     }
     if ns > 1 {
-        let labels: Vec<&str> = p.series.iter().map(|(n, _)| n.as_str()).collect();
+        let labels: Vec<String> = p.series.iter().map(|(n, _)| legend_text(n)).collect();
         let corner = legend_corner(chart.plotting_area().get_pixel_range(), &labels, &marks);
         draw_legend(&mut chart, corner)?;
     }
@@ -297,17 +316,17 @@ where
             .draw_series(LineSeries::new(line, c.stroke_width(2)))
             .map_err(|e| anyhow!("{e}"))?;
         if p.legend && !name.is_empty() {
-            s.label(name.as_str()).legend(move |(x, y)| {
+            s.label(legend_text(name)).legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
             });
         }
     }
     if p.legend && !p.curves.is_empty() {
-        let labels: Vec<&str> = p
+        let labels: Vec<String> = p
             .curves
             .iter()
-            .map(|(n, _)| n.as_str())
-            .filter(|n| !n.is_empty())
+            .filter(|(n, _)| !n.is_empty())
+            .map(|(n, _)| legend_text(n))
             .collect();
         let corner = legend_corner(chart.plotting_area().get_pixel_range(), &labels, &marks);
         draw_legend(&mut chart, corner)?;
@@ -371,12 +390,16 @@ fn sample_segment(a: (i32, i32), b: (i32, i32), marks: &mut Vec<(i32, i32)>) {
 /// category's point whenever it was high.
 fn legend_corner(
     area: (std::ops::Range<i32>, std::ops::Range<i32>),
-    labels: &[&str],
+    labels: &[impl AsRef<str>],
     marks: &[(i32, i32)],
 ) -> Corner {
     // The legend's box as plotters draws it at 13 px (a 30 px swatch, the text, margins), with a
     // few pixels to spare.
-    let longest = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0);
+    let longest = labels
+        .iter()
+        .map(|l| l.as_ref().chars().count())
+        .max()
+        .unwrap_or(0);
     let w = i32::try_from(longest)
         .unwrap_or(i32::MAX / 16)
         .saturating_mul(13)
@@ -417,6 +440,29 @@ fn legend_corner(
 }
 
 /// Draws the series labels at `corner`, in the reports' style.
+/// Most characters of a legend entry: a longer one (a long parameter value) is cut, so that the
+/// legend stays inside the plot.
+const LEGEND_CHARS: usize = 48;
+
+/// A legend entry: `name` on one line, its middle cut out ("...") where longer than
+/// [`LEGEND_CHARS`], keeping both ends (two values may differ at either).
+fn legend_text(name: &str) -> String {
+    let chars: Vec<char> = name
+        .chars()
+        .map(|c| if c == '\n' || c == '\r' { ' ' } else { c })
+        .collect();
+    if chars.len() <= LEGEND_CHARS {
+        return chars.into_iter().collect();
+    }
+    let tail = 15;
+    let head = LEGEND_CHARS - 3 - tail;
+    let (a, b): (String, String) = (
+        chars[..head].iter().collect(),
+        chars[chars.len() - tail..].iter().collect(),
+    );
+    format!("{a}...{b}")
+}
+
 fn draw_legend<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     corner: Corner,
@@ -548,6 +594,46 @@ mod tests {
         assert!(!svg.contains("rotate(90"));
         assert_eq!(png_size("short"), (640, 480));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_bar_past_the_top_ends_in_a_triangle_the_axis_explains() {
+        init_font().unwrap();
+        let dir = std::env::temp_dir().join(format!("formica-clip-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut p = plot(vec!["5".into(), "10".into()]);
+        p.y_range = None;
+        p.y_desc = "median completion time (s)".into();
+        p.series[0].1[1] = Some(Estimate {
+            y: 80.0,
+            lo: 60.0,
+            hi: f64::INFINITY,
+        });
+        save_category(&dir, "clipped", &p).unwrap();
+        let svg = std::fs::read_to_string(dir.join("clipped.svg")).unwrap();
+        assert!(svg.contains("(triangle: goes on past the top)"), "{svg}");
+        let polygons = svg.matches("<polygon").count();
+        p.series[0].1[1] = Some(Estimate {
+            y: 80.0,
+            lo: 60.0,
+            hi: 90.0,
+        });
+        save_category(&dir, "whole", &p).unwrap();
+        let svg = std::fs::read_to_string(dir.join("whole.svg")).unwrap();
+        assert!(!svg.contains("triangle"));
+        assert_eq!(polygons, svg.matches("<polygon").count() + 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_long_legend_entry_keeps_both_ends_within_its_width() {
+        assert_eq!(legend_text("friction 0.5"), "friction 0.5");
+        assert_eq!(legend_text("a\nb"), "a b");
+        let long = format!("{} alpha", "x".repeat(300));
+        let cut = legend_text(&long);
+        assert_eq!(cut.chars().count(), LEGEND_CHARS);
+        assert!(cut.starts_with("xxx") && cut.ends_with(" alpha") && cut.contains("..."));
+        assert_ne!(cut, legend_text(&long.replace("alpha", "beta")));
     }
 
     #[test]
