@@ -25,7 +25,8 @@ pub struct Args {
     /// Simulated time limit in seconds (default: the file's `run.duration_s`).
     #[arg(long)]
     pub duration: Option<f32>,
-    /// Use this controller for every robot group.
+    /// Use this controller for every robot group (the file's `params` are kept: where they
+    /// are another controller's, set them with `--set 'robots.0.params={...}'`).
     #[arg(long)]
     pub controller: Option<String>,
     /// Override any scenario key, as sweep files do: `--set robots.0.count=10`,

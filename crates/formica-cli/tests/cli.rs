@@ -285,6 +285,12 @@ fn broken_files_get_file_line_and_expectation_with_exit_2() {
         9,
         "expected a whole number",
     );
+    // -3 is a whole number: what is wrong is its sign.
+    check_error(
+        &GOOD.replace("count = 2", "count = -3"),
+        9,
+        "integer `-3`, expected a whole number, 0 or more",
+    );
 }
 
 #[test]
@@ -424,6 +430,25 @@ fn check_takes_the_controller_override_run_takes() {
     assert!(
         err.contains("robots[1] controller `random-walk`") && err.contains("circle_led"),
         "{err}"
+    );
+    // The error says the params are the file's controller's, and how to replace them; with
+    // them replaced, the run goes.
+    assert!(
+        err.contains("robots[1].params were written for `occlusion`")
+            && err.contains("--set 'robots.1.params={}'"),
+        "{err}"
+    );
+    let out = formica()
+        .arg("check")
+        .arg(repo("scenarios/mixed-swarm-u.toml"))
+        .args(["--controller", "random-walk"])
+        .args(["--set", "robots.0.params={}", "--set", "robots.1.params={}"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
     let err = input_error(
         formica()

@@ -403,9 +403,27 @@ pub fn parse_params<P: serde::de::DeserializeOwned>(
     params: Option<&toml::Table>,
 ) -> Result<P, String> {
     let table = params.cloned().unwrap_or_default();
-    toml::Value::Table(table)
+    toml::Value::Table(table.clone())
         .try_into::<P>()
-        .map_err(|e| e.message().trim().to_string())
+        .map_err(|e| with_key::<P>(&table, e.message().trim()))
+}
+
+/// `message` about `table`, prefixed with the key it is about (`` `push.spread_s`: ``) where
+/// reading the table written out as text finds one (a value of the wrong type or range; an
+/// unknown key is named by the message itself). Only on the error path: parameters that
+/// read are read from the table as they are.
+fn with_key<P: serde::de::DeserializeOwned>(table: &toml::Table, message: &str) -> String {
+    let located = || {
+        let text = toml::to_string(table).ok()?;
+        let span = toml::from_str::<P>(&text).err()?.span()?;
+        let path = crate::limits::path_at(&text, span.start);
+        let last = path.last()?;
+        (!message.contains(&format!("`{last}`"))).then(|| path.join("."))
+    };
+    match located() {
+        Some(key) => format!("`{key}`: {message}"),
+        None => message.to_string(),
+    }
 }
 
 /// As [`parse_params`], but keys the table leaves out keep `P::default()`'s values in nested
@@ -457,6 +475,42 @@ mod tests {
     use super::*;
     use crate::geometry::Pose;
     use crate::robot::RobotModel;
+
+    #[test]
+    fn a_parameter_of_the_wrong_type_is_named_with_its_table() {
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        struct Inner {
+            #[allow(dead_code)]
+            spread_s: f32,
+        }
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        struct P {
+            #[allow(dead_code)]
+            speed: f32,
+            #[allow(dead_code)]
+            push: Option<Inner>,
+        }
+        let table = |t: &str| t.parse::<toml::Table>().unwrap();
+        let err = parse_params::<P>(Some(&table("speed = \"fast\""))).unwrap_err();
+        assert!(
+            err.starts_with("`speed`: invalid type: string \"fast\""),
+            "{err}"
+        );
+        let err = parse_params::<P>(Some(&table("speed = 1.0\npush = { spread_s = \"x\" }")))
+            .unwrap_err();
+        assert!(err.starts_with("`push.spread_s`: invalid type"), "{err}");
+        // An unknown key names itself once; parameters that read are read as they are.
+        let err = parse_params::<P>(Some(&table("speed = 1.0\nsped = 2.0"))).unwrap_err();
+        assert!(err.starts_with("unknown field `sped`"), "{err}");
+        assert_eq!(
+            parse_params::<P>(Some(&table("speed = 0.1")))
+                .unwrap()
+                .speed,
+            0.1
+        );
+    }
 
     #[test]
     fn the_heading_filter_narrows_noise_and_follows_commanded_turns() {

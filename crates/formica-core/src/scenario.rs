@@ -537,9 +537,9 @@ pub(crate) fn plain_message(m: &str) -> String {
         }
         let w = word_end(rest);
         let plain = match &rest[..w] {
-            "usize" | "u8" | "u16" | "u32" | "u64" | "isize" | "i8" | "i16" | "i32" | "i64" => {
-                Some("a whole number")
-            }
+            // Unsigned: "-3" is refused for its sign, so say so.
+            "usize" | "u8" | "u16" | "u32" | "u64" => Some("a whole number, 0 or more"),
+            "isize" | "i8" | "i16" | "i32" | "i64" => Some("a whole number"),
             "f32" | "f64" => Some("a number"),
             _ => None,
         };
@@ -1443,6 +1443,31 @@ impl Scenario {
             }
         }
         Err(full)
+    }
+
+    /// The controller that robot group `g`'s `params` were written for: the file's controller
+    /// of that group when the params come from the file (no override wrote them) and the file
+    /// names one; `None` otherwise. Lets an error about params that a replaced controller
+    /// refuses say whose they are.
+    pub fn params_written_for(&self, g: usize) -> Option<String> {
+        let grp = self.spec.robots.get(g)?.get_ref();
+        grp.params.as_ref()?;
+        let Some(o) = &self.overridden else {
+            return Some(grp.controller.get_ref().clone());
+        };
+        let mine = format!("robots.{g}.params");
+        let wrote_params = o.overrides.iter().any(|(k, _)| {
+            k == "robots"
+                || *k == format!("robots.{g}")
+                || k == &mine
+                || k.starts_with(&format!("{mine}."))
+        });
+        if wrote_params {
+            return None;
+        }
+        let base: toml::Table = o.base_text.parse().ok()?;
+        let group = base.get("robots")?.as_array()?.get(g)?;
+        Some(group.get("controller")?.as_str()?.to_string())
     }
 
     /// An error positioned at a span of the source (for a scenario made with overrides, at

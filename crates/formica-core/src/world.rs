@@ -526,7 +526,17 @@ impl World {
                         (Some(p), false) => p.span(),
                         _ => grp.controller.span(),
                     };
-                    sc.error_at(span, format!("robots[{g}] controller `{name}`: {m}"))
+                    // Another controller than the file's keeps the file's params, which may
+                    // be for the file's controller only: say so, and what to do.
+                    let hint = match sc.params_written_for(g) {
+                        Some(file_controller) if file_controller != name => format!(
+                            " (robots[{g}].params were written for `{file_controller}`, the \
+                             file's controller, and are kept with another: set them for \
+                             `{name}`, `--set 'robots.{g}.params={{}}'` for its defaults)"
+                        ),
+                        _ => String::new(),
+                    };
+                    sc.error_at(span, format!("robots[{g}] controller `{name}`: {m}{hint}"))
                 })?;
             let count = sc.group_count(g);
             let poses = place_group(
@@ -618,6 +628,10 @@ impl World {
     /// One control tick: release robots that are due, act, physics sub-steps, sense, control.
     /// Robots start still: their controllers first run at the end of the first tick, once the
     /// physics has built its query tree.
+    ///
+    /// # Panics
+    /// When a controller gave a robot a wheel speed that is not a finite number (a bug in the
+    /// controller; the message names it, the robot and the time).
     pub fn step(&mut self) {
         self.step_with(|_| {});
     }
@@ -748,6 +762,17 @@ impl World {
             let r = &mut self.robots[i];
             let grp = &self.groups[r.group];
             let top = grp.model.max_speed;
+            // A controller's bug, said where it happens: a NaN wheel speed left the robot
+            // standing for the rest of the run, as if it chose to.
+            assert!(
+                action.left.is_finite() && action.right.is_finite(),
+                "controller `{}` gave robot {i} the wheel speeds ({}, {}) at {:.1} s: wheel \
+                 speeds must be finite numbers (m/s)",
+                grp.controller,
+                action.left,
+                action.right,
+                self.time_s
+            );
             let mut wheels = [action.left, action.right];
             for (k, v) in wheels.iter_mut().enumerate() {
                 *v = v.clamp(-top, top) * r.wheel_factor[k];

@@ -246,3 +246,51 @@ fn builtin_scenarios_are_unchanged_through_an_extended_registry() {
     b.wall_time_s = 0.0;
     assert_eq!((a, ta), (b, tb));
 }
+
+/// Drives ahead, then, from its third step on, with a NaN left wheel (a controller's bug).
+struct GoesNan {
+    steps: u32,
+}
+
+impl Controller for GoesNan {
+    fn step(&mut self, _r: &Readings, _rng: &mut RobotRng) -> Actuation {
+        self.steps += 1;
+        Actuation {
+            left: if self.steps >= 3 { f32::NAN } else { 0.1 },
+            right: 0.1,
+            ..Actuation::default()
+        }
+    }
+    fn state(&self) -> &'static str {
+        "driving"
+    }
+}
+
+#[test]
+fn a_nan_wheel_speed_stops_the_run_naming_the_controller_not_a_robot_standing_still() {
+    let mut reg = Registry::builtin();
+    reg.controller("goes-nan", |_, _| {
+        Ok(ControllerFactory::new(SensorNeeds::default(), || {
+            Box::new(GoesNan { steps: 0 })
+        }))
+    })
+    .unwrap();
+    let text = TEXT
+        .replace("\"spin\"", "\"goes-nan\"")
+        .replace("sixteen-eyes", "khepera4");
+    let sc = reg
+        .parse(&text, "nan.toml")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut w = World::new(&sc, &Overrides::default()).unwrap();
+    for _ in 0..3 {
+        w.step();
+    }
+    let err = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| w.step()))
+        .expect_err("a NaN wheel speed was taken");
+    let msg = err.downcast_ref::<String>().cloned().unwrap_or_default();
+    assert!(
+        msg.contains("controller `goes-nan` gave robot 0 the wheel speeds (NaN, 0.1)")
+            && msg.contains("must be finite numbers"),
+        "{msg}"
+    );
+}
