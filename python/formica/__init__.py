@@ -291,8 +291,10 @@ def register_controller(name: str, cls: Optional[type] = None, *, needs: Optiona
     ``state`` str attribute, if the instance has one (set in ``__init__`` or any later
     ``step``), is its state name after each step (a process keeps the first 4,096 distinct
     names; later new ones read ``"other"``; a value that is not a str is not a state name). ``needs`` (or a class
-    attribute ``needs``) lists the sensors it reads, from ``proximity``, ``light``, ``beacon``
-    and ``camera``; default: all but the camera.
+    attribute ``needs``) lists the sensors it reads, from ``proximity``, ``light``, ``beacon``,
+    ``camera`` (``readings.blobs``) and ``scan`` (the colour scan, ``readings.scan``); default:
+    ``proximity``, ``light`` and ``beacon``. A sensor left out is not computed, and reading it
+    raises ``AttributeError``.
 
     Usable as a decorator: ``@formica.register_controller("mine")``.
     """

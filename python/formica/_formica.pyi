@@ -43,6 +43,8 @@ class Layout:
     proximity_range: float
     beacon_radius: float | None
     tick_s: float
+    scan_angles: list[float]
+    scan_range: float
     names: list[str]
     slots: dict[str, tuple[int, int]]
     size: int
@@ -55,6 +57,7 @@ class Readings:
     beacon: Optional[tuple[float, float]]
     attached: bool
     blobs: list[tuple[float, float, str]]
+    scan: list[tuple[str, float]]
     def __getattr__(self, name: str) -> Union[float, tuple[float, ...]]: ...
     def __getitem__(self, name: str) -> Union[float, tuple[float, ...]]: ...
     def __len__(self) -> int: ...

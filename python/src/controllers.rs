@@ -76,23 +76,58 @@ fn intern_state(name: &str) -> &'static str {
     leaked
 }
 
-/// The sensors named in `needs` (`proximity`, `light`, `beacon`, `camera`).
-fn parse_needs(needs: &[String]) -> PyResult<SensorNeeds> {
+/// The sensors named in `needs` (`proximity`, `light`, `beacon`, `camera`, `scan`). A batched
+/// controller reads the flat readings `[N, L]`, which hold neither camera blobs nor the colour
+/// scan: it may not ask for them (it would pay for sensors it cannot read).
+fn parse_needs(needs: &[String], batched: bool) -> PyResult<SensorNeeds> {
     let mut n = SensorNeeds::default();
     for s in needs {
         match s.as_str() {
             "proximity" => n.proximity = true,
             "light" => n.light = true,
             "beacon" => n.beacon = true,
+            "camera" | "scan" if batched => {
+                return Err(PyValueError::new_err(format!(
+                    "needs: a batched controller reads the readings array, which has no \
+                     `{s}`: read it from a per-robot controller (register_controller)"
+                )))
+            }
             "camera" => n.camera = true,
+            "scan" => n.scan = true,
             other => {
                 return Err(PyValueError::new_err(format!(
-                    "needs: unknown sensor `{other}`, expected proximity, light, beacon or camera"
+                    "needs: unknown sensor `{other}`, expected proximity, light, beacon, camera \
+                     or scan"
                 )))
             }
         }
     }
     Ok(n)
+}
+
+/// The sensor behind an attribute of `Readings` (a slot of the readings vector, `beacon`,
+/// `blobs`, `scan`), when one must be asked for (`needs`).
+fn sensor_of_slot(slot: &str) -> Option<&'static str> {
+    match slot {
+        "proximity" => Some("proximity"),
+        "light" => Some("light"),
+        "beacon" | "beacon_x" | "beacon_y" | "has_beacon" => Some("beacon"),
+        "blobs" => Some("camera"),
+        "scan" => Some("scan"),
+        _ => None,
+    }
+}
+
+/// Whether `needs` holds the sensor named `sensor`.
+fn has_sensor(needs: &SensorNeeds, sensor: &str) -> bool {
+    match sensor {
+        "proximity" => needs.proximity,
+        "light" => needs.light,
+        "beacon" => needs.beacon,
+        "camera" => needs.camera,
+        "scan" => needs.scan,
+        _ => true,
+    }
 }
 
 /// A TOML value as a Python object (datetimes as their TOML text).
@@ -309,6 +344,12 @@ pub struct PyLayout {
     /// Control period (s): `1 / run.tick_hz`.
     #[pyo3(get)]
     tick_s: f32,
+    /// Bearing of each colour-scan bin (rad, robot frame, counterclockwise from ahead).
+    #[pyo3(get)]
+    scan_angles: Vec<f32>,
+    /// Range of the colour scan (m).
+    #[pyo3(get)]
+    scan_range: f32,
     proximity_curve: ProximityCurve,
     shape: Arc<Shape>,
 }
@@ -324,6 +365,8 @@ impl PyLayout {
             proximity_range: layout.proximity_range,
             beacon_radius: layout.beacon_radius,
             tick_s: layout.tick_s,
+            scan_angles: layout.scan_angles.clone(),
+            scan_range: layout.scan_range,
             proximity_curve: layout.proximity_curve,
             shape,
         }
@@ -387,15 +430,30 @@ pub(crate) fn slots_dict<'py>(py: Python<'py>, shape: &Shape) -> PyResult<Bound<
 
 /// One robot's readings in one tick. Every slot of the layout is an attribute: one value as a
 /// float (`r.x`, `r.time_s`, `r.has_beacon`), several as a tuple (`r.proximity`, `r.light`).
-/// Also: `vector` (the whole float32 vector), `pose`, `beacon`, `attached`, `blobs`.
+/// Also: `vector` (the whole float32 vector), `pose`, `beacon`, `attached`, `blobs`, `scan`.
+/// A sensor the controller's `needs` leave out is not computed, and reading it raises
+/// `AttributeError` (in `vector` its values are zeros).
 #[pyclass(module = "formica", name = "Readings", frozen)]
 pub struct PyReadings {
     values: Vec<f32>,
     shape: Arc<Shape>,
+    needs: SensorNeeds,
     blobs: Vec<(f32, f32, &'static str)>,
+    scan: Vec<(&'static str, f32)>,
 }
 
 impl PyReadings {
+    /// An error unless the controller's `needs` hold `sensor`.
+    fn needed(&self, sensor: &str) -> PyResult<()> {
+        if has_sensor(&self.needs, sensor) {
+            return Ok(());
+        }
+        Err(pyo3::exceptions::PyAttributeError::new_err(format!(
+            "`{sensor}` is not read: this controller's needs leave it out (it is not \
+             computed); add \"{sensor}\" to needs where the controller is registered"
+        )))
+    }
+
     fn get(&self, name: &str) -> Option<&[f32]> {
         self.shape
             .slot(name)
@@ -403,6 +461,9 @@ impl PyReadings {
     }
 
     fn scalar(&self, name: &str) -> PyResult<f32> {
+        if let Some(sensor) = sensor_of_slot(name) {
+            self.needed(sensor)?;
+        }
         match self.get(name) {
             Some([v]) => Ok(*v),
             _ => Err(pyo3::exceptions::PyAttributeError::new_err(format!(
@@ -412,6 +473,9 @@ impl PyReadings {
     }
 
     fn value<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
+        if let Some(sensor) = sensor_of_slot(name) {
+            self.needed(sensor)?;
+        }
         Ok(match self.get(name) {
             Some([v]) => Some(PyFloat::new(py, f64::from(*v)).into_any()),
             Some(vs) => Some(PyTuple::new(py, vs.iter().map(|v| f64::from(*v)))?.into_any()),
@@ -423,6 +487,11 @@ impl PyReadings {
 #[pymethods]
 impl PyReadings {
     fn __getattr__<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        // Python comes here too when a getter (`beacon`, `blobs`, `scan`) raised
+        // AttributeError: say why, not that there is no such attribute.
+        if let Some(sensor) = sensor_of_slot(name) {
+            self.needed(sensor)?;
+        }
         self.value(py, name)?.ok_or_else(|| {
             pyo3::exceptions::PyAttributeError::new_err(format!(
                 "Readings has no `{name}`; slots: {}",
@@ -473,11 +542,23 @@ impl PyReadings {
         Ok(self.scalar("attached")? > 0.5)
     }
 
-    /// Camera blobs `(bearing rad, distance m, colour name)` (empty unless the controller
+    /// Camera blobs `(bearing rad, distance m, colour name)`, nearest first (the controller
     /// needs the camera).
     #[getter]
-    fn blobs(&self) -> Vec<(f32, f32, &'static str)> {
-        self.blobs.clone()
+    fn blobs(&self) -> PyResult<Vec<(f32, f32, &'static str)>> {
+        self.needed("camera")?;
+        Ok(self.blobs.clone())
+    }
+
+    /// The colour scan, one `(colour name, range m)` per bin, bins at `Layout.scan_angles`:
+    /// the colour of the first body the bin's ray meets (`"off"` for nothing in range, `"grey"`
+    /// a wall, `"black"` a robot with its LEDs off, else an object's or a lit LED's colour) and
+    /// a coarse, noisy range (`Layout.scan_range` where nothing is met). The controller needs
+    /// `scan`.
+    #[getter]
+    fn scan(&self) -> PyResult<Vec<(&'static str, f32)>> {
+        self.needed("scan")?;
+        Ok(self.scan.clone())
     }
 
     fn __repr__(&self) -> String {
@@ -489,14 +570,20 @@ fn readings_object(
     py: Python<'_>,
     r: &Readings,
     shape: &Arc<Shape>,
-    camera: bool,
+    needs: SensorNeeds,
 ) -> PyResult<Py<PyReadings>> {
     let mut values = vec![0.0; shape.flat.len()];
     shape
         .flat
         .write(r, &mut values)
         .map_err(PyRuntimeError::new_err)?;
-    let blobs = if camera {
+    let scan = r
+        .scan_color
+        .iter()
+        .zip(&r.scan_range)
+        .map(|(c, d)| (c.name(), *d))
+        .collect();
+    let blobs = if needs.camera {
         r.blobs
             .iter()
             .map(|b| (b.bearing, b.distance, b.color.name()))
@@ -509,7 +596,9 @@ fn readings_object(
         PyReadings {
             values,
             shape: shape.clone(),
+            needs,
             blobs,
+            scan,
         },
     )
 }
@@ -689,7 +778,7 @@ struct RobotAdapter {
     obj: Py<PyAny>,
     rng: Py<PyRng>,
     shape: Arc<Shape>,
-    camera: bool,
+    needs: SensorNeeds,
     read_state: bool,
     state: &'static str,
     who: Arc<str>,
@@ -697,7 +786,7 @@ struct RobotAdapter {
 
 impl RobotAdapter {
     fn step_py(&mut self, py: Python<'_>, r: &Readings, rng: &mut RobotRng) -> PyResult<Actuation> {
-        let readings = readings_object(py, r, &self.shape, self.camera)?;
+        let readings = readings_object(py, r, &self.shape, self.needs)?;
         std::mem::swap(&mut self.rng.bind(py).borrow_mut().inner, rng);
         let out = self
             .obj
@@ -798,7 +887,7 @@ fn factory_args(
 /// Registers the per-robot Python controller class `cls` as `name`.
 #[pyfunction]
 pub fn register_robot(name: String, cls: Py<PyAny>, needs: Vec<String>) -> PyResult<()> {
-    let needs = parse_needs(&needs)?;
+    let needs = parse_needs(&needs, false)?;
     let who: Arc<str> = Arc::from(format!("controller `{name}`"));
     let build = move |params: Option<&toml::Table>,
                       layout: &SensorLayout|
@@ -811,7 +900,6 @@ pub fn register_robot(name: String, cls: Py<PyAny>, needs: Vec<String>) -> PyRes
                 .map_err(|e| describe(py, &e))?;
             let cls = cls.clone_ref(py);
             let who = who.clone();
-            let camera = needs.camera;
             Ok(ControllerFactory::new(needs, move || {
                 Python::attach(|py| -> Box<dyn Controller> {
                     let made = (|| -> PyResult<RobotAdapter> {
@@ -825,7 +913,7 @@ pub fn register_robot(name: String, cls: Py<PyAny>, needs: Vec<String>) -> PyRes
                             obj: obj.unbind(),
                             rng,
                             shape: shape.clone(),
-                            camera,
+                            needs,
                             read_state,
                             state: "python",
                             who: who.clone(),
@@ -1050,7 +1138,7 @@ pub fn register_batch(
     needs: Vec<String>,
     pass_context: bool,
 ) -> PyResult<()> {
-    let needs = parse_needs(&needs)?;
+    let needs = parse_needs(&needs, true)?;
     let who: Arc<str> = Arc::from(format!("batched controller `{name}`"));
     let build = move |params: Option<&toml::Table>,
                       layout: &SensorLayout|

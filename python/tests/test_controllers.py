@@ -264,7 +264,9 @@ def test_a_per_robot_controller_sees_its_row_of_the_readings():
             x, y, theta = r.pose
             assert (x, y) == (r.x, r.y) and r["theta"] == theta and len(r) == 24
             assert len(r.proximity) == 8 and r.beacon == (r.beacon_x, r.beacon_y)
-            assert r.attached is False and r.blobs == []
+            assert r.attached is False
+            with pytest.raises(AttributeError, match="`camera` is not read"):
+                r.blobs  # the camera is not among the default needs
             seen[round(r.time_s, 3), x] = r.vector
             return 0.05, 0.05
 
@@ -404,3 +406,54 @@ def bad_led(readings):
 def test_a_batched_controllers_bad_code_names_it_and_the_row():
     with pytest.raises(ValueError, match="py-bad-led.*row 0: LED code 99 is not a colour"):
         formica.World(scenario("py-bad-led", count=2)).step(2)
+
+
+class Seer:
+    """Stands still and keeps what its colour scan shows; reads only the scan."""
+
+    needs = ("scan",)
+    seen = []
+
+    def __init__(self, layout):
+        self.layout = layout
+
+    def step(self, r):
+        Seer.seen.append((r.pose, r.scan))
+        with pytest.raises(AttributeError, match="`light` is not read: this controller's needs leave it out"):
+            r.light
+        with pytest.raises(AttributeError, match="`beacon` is not read"):
+            r.beacon
+        with pytest.raises(AttributeError, match="`camera` is not read"):
+            r.blobs
+        return 0.0, 0.0
+
+
+formica.register_controller("py-seer", Seer)
+
+
+def test_a_python_controller_reads_the_colour_scan_and_only_the_sensors_it_needs():
+    # One robot 0.6 m west of the box's centre, facing it (east), no noise: the bins ahead meet
+    # the box's west face 0.35 m away (in 0.02 m steps) and show its colour; the bin behind
+    # meets nothing within the scan's 1 m.
+    Seer.seen.clear()
+    sc = (
+        scenario("py-seer", count=1)
+        .set("robots.0.placement", {"poses": [[-1.6, 0.0, 0.0]]})
+        .set("robots.0.sensors.noise", "none")
+    )
+    w = formica.World(sc, seed=2, duration=0.3)
+    w.run()
+    assert Seer.seen
+    _, scan = Seer.seen[-1]
+    assert len(scan) == 36
+    assert scan[0][0] == "green" and abs(scan[0][1] - 0.35) <= 0.011, scan[0]
+    assert scan[18] == ("off", 1.0), scan[18]
+    # The box's face spans about +-35 degrees from here: bins 0, 1, 2, 3 and 33, 34, 35 see it.
+    green = [i for i, (c, _) in enumerate(scan) if c == "green"]
+    assert set(green) == {0, 1, 2, 3, 33, 34, 35}, green
+
+
+def test_a_batched_controller_may_not_ask_for_what_its_array_cannot_hold():
+    for sensor in ("camera", "scan"):
+        with pytest.raises(ValueError, match=f"a batched controller reads the readings array, which has no `{sensor}`"):
+            formica.register_batched(f"py-bad-{sensor}", lambda readings: readings[:, :2] * 0, needs=(sensor,))
