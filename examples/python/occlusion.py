@@ -18,6 +18,7 @@ Registered as `py-occlusion`; a scenario file names it like any controller.
 from __future__ import annotations
 
 import argparse
+import pathlib
 import math
 import statistics
 import time
@@ -432,7 +433,9 @@ def _rate(rows) -> str:
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--scenario", default="scenarios/seed-transport.toml")
+    # The shipped scenario, found from this file, so that the script runs from any folder.
+    default = pathlib.Path(__file__).resolve().parents[2] / "scenarios" / "seed-transport.toml"
+    ap.add_argument("--scenario", default=str(default))
     ap.add_argument("--seeds", default="1..20", help="A..B inclusive (default 1..20)")
     ap.add_argument("--rust-only", action="store_true", help="run only the built-in Rust controller")
     ap.add_argument("--python-only", action="store_true", help="run only this Python port")

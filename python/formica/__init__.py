@@ -296,7 +296,9 @@ def register_controller(name: str, cls: Optional[type] = None, *, needs: Optiona
     ``proximity``, ``light`` and ``beacon``. A sensor left out is not computed, and reading it
     raises ``AttributeError``.
 
-    Usable as a decorator: ``@formica.register_controller("mine")``.
+    Registering a name again replaces what it named (as re-running a notebook cell does);
+    a built-in's name is refused. Usable as a decorator:
+    ``@formica.register_controller("mine")``.
     """
     if cls is None:
         return functools.partial(register_controller, name, needs=needs)

@@ -95,7 +95,18 @@ fn from_panic(payload: Box<dyn Any + Send>) -> PyErr {
 
 /// `formica.ScenarioError` for a core scenario error, with its parts as attributes.
 pub(crate) fn scenario_error(py: Python<'_>, e: &formica::ScenarioError) -> PyErr {
-    let err = ScenarioError::new_err(e.to_string());
+    // From Python, an unknown controller is most often one registered too late.
+    let hint = |m: &str| {
+        if m.contains("unknown controller `") {
+            format!(
+                "{m} (a controller written in Python is known once registered, \
+                 formica.register_controller, before a scenario naming it is loaded)"
+            )
+        } else {
+            m.to_string()
+        }
+    };
+    let err = ScenarioError::new_err(hint(&e.to_string()));
     let value = err.value(py);
     let parts = match e {
         formica::ScenarioError::Invalid {
@@ -103,8 +114,8 @@ pub(crate) fn scenario_error(py: Python<'_>, e: &formica::ScenarioError) -> PyEr
             line,
             column,
             message,
-        } => (file.clone(), Some(*line), Some(*column), message.clone()),
-        formica::ScenarioError::Io { file, message } => (file.clone(), None, None, message.clone()),
+        } => (file.clone(), Some(*line), Some(*column), hint(message)),
+        formica::ScenarioError::Io { file, message } => (file.clone(), None, None, hint(message)),
     };
     let set = || -> PyResult<()> {
         value.setattr("file", parts.0)?;
