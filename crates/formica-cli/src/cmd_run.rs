@@ -278,7 +278,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     match &a.seeds {
         Some(s) => run_many(&a, &sc, parse_seeds(s)?),
-        None => run_one(&a, &sc, &overrides(&a, a.seed), None),
+        None => crate::caught(|| run_one(&a, &sc, &overrides(&a, a.seed), None)),
     }
 }
 
@@ -289,6 +289,14 @@ fn json_line(r: &RunResult, p: &Provenance) -> Result<String, CliError> {
         provenance: p,
     })
     .context("encoding JSON")?)
+}
+
+/// `e`, a failure of one trial among several, prefixed with which (`seed 3`).
+fn in_trial(e: CliError, which: &str) -> CliError {
+    match e {
+        CliError::Other(e) => CliError::Other(anyhow::anyhow!("{which}: {e:#}")),
+        e => e,
+    }
 }
 
 /// Time series of `formica run --out` are sampled this often (simulated seconds).
@@ -398,7 +406,7 @@ fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
     if let Some(range) = &which {
         if range.start() == range.end() {
             let r = replayer.trial(*range.start())?;
-            return run_one(a, &r.scenario, &r.overrides(), Some(&r));
+            return crate::caught(|| run_one(a, &r.scenario, &r.overrides(), Some(&r)));
         }
     }
     if a.out.is_some() {
@@ -425,7 +433,7 @@ fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
         .num_threads(a.threads.unwrap_or(0))
         .build()
         .context("starting worker threads")?;
-    let results: Vec<Result<RunResult, formica::ScenarioError>> = pool.install(|| {
+    let results: Vec<Result<RunResult, CliError>> = pool.install(|| {
         replays
             .par_iter()
             .with_max_len(1)
@@ -434,7 +442,8 @@ fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
                     overrides: r.overrides(),
                     ..Default::default()
                 };
-                formica::run(&r.scenario, &opts).map(|(res, _)| res)
+                crate::caught(|| Ok(formica::run(&r.scenario, &opts).map(|(res, _)| res)?))
+                    .map_err(|e| in_trial(e, &format!("trial {}", r.trial)))
             })
             .collect()
     });
@@ -508,14 +517,15 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
     let all: Vec<u64> = seeds.clone().collect();
     let mut results: Vec<RunResult> = Vec::with_capacity(all.len());
     for part in all.chunks(chunk) {
-        let done: Vec<Result<RunResult, formica::ScenarioError>> = pool.install(|| {
+        let done: Vec<Result<RunResult, CliError>> = pool.install(|| {
             part.par_iter()
                 .map(|&seed| {
                     let opts = RunOptions {
                         overrides: overrides(a, Some(seed)),
                         ..Default::default()
                     };
-                    formica::run(sc, &opts).map(|(r, _)| r)
+                    crate::caught(|| Ok(formica::run(sc, &opts).map(|(r, _)| r)?))
+                        .map_err(|e| in_trial(e, &format!("seed {seed}")))
                 })
                 .collect()
         });

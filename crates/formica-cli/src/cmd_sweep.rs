@@ -332,7 +332,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 if crate::stop_requested() {
                     return None;
                 }
-                match run_trial(&sweep, t, record, &provenance[t.set]) {
+                match crate::caught(|| Ok(run_trial(&sweep, t, record, &provenance[t.set])?)) {
                     Ok(row) => tx
                         .send((row, judged[t.set]))
                         .err()

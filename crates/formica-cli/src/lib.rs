@@ -281,6 +281,15 @@ pub(crate) fn check_seed(s: Option<u64>) -> Result<(), CliError> {
     }
 }
 
+impl std::fmt::Display for CliError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CliError::Input(m) | CliError::Interrupted(m) => f.write_str(m),
+            CliError::Other(e) => write!(f, "{e:#}"),
+        }
+    }
+}
+
 impl From<formica::ScenarioError> for CliError {
     fn from(e: formica::ScenarioError) -> Self {
         CliError::Input(e.to_string())
@@ -461,7 +470,88 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
     }
 }
 
+thread_local! {
+    /// Whether this thread runs a trial inside [`caught`] (its panic is reported as an error).
+    static IN_TRIAL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Where the last panic inside [`caught`] on this thread happened, and its message.
+    static LAST_PANIC: std::cell::RefCell<Option<String>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Runs one trial's work, turning a panic in it (a bug in a controller, such as a NaN wheel
+/// speed, or in Formica) into an error that says where and why: a run of many seeds, or a
+/// sweep, reports it once, as an error line with the trial, instead of a panic message from
+/// every worker thread, and a sweep keeps running its other trials.
+pub(crate) fn caught<T>(f: impl FnOnce() -> Result<T, CliError>) -> Result<T, CliError> {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if IN_TRIAL.with(std::cell::Cell::get) {
+                let at = info
+                    .location()
+                    .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                    .unwrap_or_default();
+                LAST_PANIC.with(|p| *p.borrow_mut() = Some(at));
+            } else {
+                previous(info);
+            }
+        }));
+    });
+    let was = IN_TRIAL.with(|t| t.replace(true));
+    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    IN_TRIAL.with(|t| t.set(was));
+    out.unwrap_or_else(|payload| {
+        // A panic that carries something else than a message is an embedder's (the Python
+        // package carries a controller's exception this way): it goes on unwinding to it.
+        let Some(message) = payload
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+        else {
+            std::panic::resume_unwind(payload)
+        };
+        let at = LAST_PANIC
+            .with(|p| p.borrow_mut().take())
+            .unwrap_or_default();
+        Err(CliError::Other(anyhow::anyhow!(
+            "stopped by a panic{at}: {message} (a bug in a controller, or in Formica: please \
+             report it with the scenario and seed)"
+        )))
+    })
+}
+
 /// Cores this process may use (1 when unknown).
 pub(crate) fn available_threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_in_a_trial_becomes_an_error_that_says_where_and_why() {
+        let err = caught(|| -> Result<(), CliError> {
+            panic!("controller `x` gave robot 0 the wheel speeds (NaN, 0.1)")
+        })
+        .expect_err("the panic was not caught");
+        let text = err.to_string();
+        assert!(
+            text.starts_with("stopped by a panic at crates/formica-cli/src/lib.rs:")
+                && text.contains("controller `x` gave robot 0 the wheel speeds (NaN, 0.1)")
+                && text.contains("a bug in a controller, or in Formica"),
+            "{text}"
+        );
+        assert!(matches!(err, CliError::Other(_)));
+        // Outside a trial nothing is changed: the flag is down again; values pass through.
+        assert!(!IN_TRIAL.with(std::cell::Cell::get));
+        assert_eq!(caught(|| Ok(7)).ok(), Some(7));
+        // Another payload (an embedder's) unwinds on, untouched.
+        struct Carried(u8);
+        let payload = std::panic::catch_unwind(|| {
+            caught(|| -> Result<(), CliError> { std::panic::panic_any(Carried(3)) })
+        })
+        .expect_err("an embedder's panic was swallowed");
+        assert_eq!(payload.downcast_ref::<Carried>().map(|c| c.0), Some(3));
+    }
 }
