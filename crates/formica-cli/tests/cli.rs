@@ -883,6 +883,26 @@ fn check_warns_when_the_object_starts_at_the_goal() {
 }
 
 #[test]
+fn check_warns_when_a_filling_beacon_stands_over_open_floor() {
+    // seed-fill-u's beacon stands over the U's back wall; moved over open floor 0.35 m east of
+    // it, a filler that reaches the spot below it without touching the U circles there, and
+    // check says so (not for the shipped file).
+    let text = std::fs::read_to_string(repo("scenarios/seed-fill-u.toml")).unwrap();
+    let dir = tmp("beacon-open-floor");
+    let check = |text: String| check_text(&dir, &text);
+    let fine = check(text.clone());
+    assert!(!fine.contains("open floor"), "{fine}");
+    assert!(text.contains("at = [-0.8, 0.0]"));
+    let open = check(text.replacen("at = [-0.8, 0.0]", "at = [-0.3, 0.0]", 1));
+    assert!(
+        open.contains(
+            "lights.0 stands over open floor at (-0.30, 0.00), 0.35 m from the nearest object"
+        ) && open.contains("khepera4 sense 0.19 m"),
+        "{open}"
+    );
+}
+
+#[test]
 fn check_warns_when_the_camera_goal_has_no_goal_colour() {
     // Relays (and goal_sensor = "camera") see the goal in relay.goal_color (cyan): a goal light
     // without that colour is never seen, so check says which key to set. The shipped qm maps
