@@ -76,24 +76,37 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     for (i, o) in w.objects.iter().enumerate() {
         let c = w.object_center(i);
-        let kind = if o.movable { "movable" } else { "static" };
         let friction = floor_friction(&sc, w, i);
+        // A static object's mass and floor friction play no part: they are not shown.
+        let load = if o.movable {
+            format!("movable, {} kg", o.mass)
+        } else {
+            "static (fixed in place)".into()
+        };
+        let rubs = if o.movable {
+            format!(", floor friction {friction:.2} N")
+        } else {
+            String::new()
+        };
         outln!(
-            "  object {i} \"{}\": {kind}, {} part(s), centre ({:.3}, {:.3}), {} kg, height {} m, size {:.3} m, floor friction {:.2} N",
+            "  object {i} \"{}\": {load}, {} part(s), centre ({:.3}, {:.3}), height {} m, size {:.3} m{rubs}",
             o.name,
             o.parts.len(),
             c.x,
             c.y,
-            o.mass,
             o.height,
             object_size(w, i),
-            friction,
         );
         if o.movable {
             let mut pushers: Vec<String> = Vec::new();
             for g in &w.groups {
                 let n = (friction / g.model.max_force).floor() as usize + 1;
-                let p = format!("{} {}", n, g.model_name);
+                let p = format!(
+                    "{} {} ({} N each)",
+                    n,
+                    g.model_name,
+                    formica::limits::show(g.model.max_force)
+                );
                 if !pushers.contains(&p) {
                     pushers.push(p);
                 }
