@@ -28,7 +28,10 @@ and runs its first tick with the robots still, so the first observations are rea
 Options of every constructor: ``scenario`` (path or :class:`formica.Scenario`), ``seed``,
 ``robots`` (overrides ``robots.0.count``), ``set`` (a dict of further ``Scenario.set``
 overrides), ``sensors`` (which sensors to compute; default proximity, light, beacon),
-``frame_skip``, ``max_steps``, ``progress_reward``, ``success_reward``, ``wall_penalty``,
+``positioning`` (default True; False leaves the robot's own position and heading, ``x``,
+``y``, ``theta``, out of its observation: a robot with no overhead tracker, whose policy
+cannot steer by world coordinates; leave ``beacon`` out of ``sensors`` too for one that does
+not know where the object is), ``frame_skip``, ``max_steps``, ``progress_reward``, ``success_reward``, ``wall_penalty``,
 ``time_penalty``. Every robot group runs the ``external`` controller: the policy drives it.
 """
 
@@ -58,6 +61,8 @@ except ImportError as e:  # pragma: no cover
 
 DEFAULT_SCENARIO = "scenarios/seed-transport.toml"
 DEFAULT_SENSORS = ("proximity", "light", "beacon")
+#: The readings a tracker gives a robot of itself, which ``positioning=False`` leaves out.
+POSITION_READINGS = ("x", "y", "theta")
 SENSORS = ("proximity", "light", "beacon", "camera")
 
 
@@ -132,6 +137,7 @@ class _Task:
         robots: Optional[int] = None,
         set: Optional[dict] = None,
         sensors=DEFAULT_SENSORS,
+        positioning: bool = True,
         frame_skip: int = 1,
         max_steps: Optional[int] = None,
         progress_reward: float = 100.0,
@@ -158,8 +164,30 @@ class _Task:
             raise ValueError("the scenario has no robots")
         self.groups = probe.robot_groups
         self.layouts = [probe.layout(g) for g in range(len(probe.groups))]
+        if not isinstance(positioning, bool):
+            raise ValueError(f"positioning: expected True or False, got {positioning!r}")
+        # Each group's readings columns observed: all, or all but the robot's own position.
+        self.keep = [
+            None
+            if positioning
+            else np.array([k for k, n in enumerate(l.names) if n not in POSITION_READINGS])
+            for l in self.layouts
+        ]
         # What each group's readings can hold: the arena, the noise's largest draw, the run.
-        self.bounds = [probe.reading_bounds(g) for g in range(len(probe.groups))]
+        self.bounds = [
+            tuple(self.view(b, g) for b in probe.reading_bounds(g)) for g in range(len(probe.groups))
+        ]
+
+    def view(self, readings: np.ndarray, group: int = 0) -> np.ndarray:
+        """The observed columns of ``readings`` (last axis) of robots of ``group``."""
+        keep = self.keep[group]
+        return readings if keep is None else readings[..., keep]
+
+    def names(self, group: int = 0) -> list:
+        """The names of the observed columns of ``group``."""
+        names = self.layouts[group].names
+        keep = self.keep[group]
+        return names if keep is None else [names[k] for k in keep]
 
     def take_seed(self, seed: Optional[int]) -> int:
         if seed is not None:
@@ -216,7 +244,7 @@ class TransportParallelEnv(ParallelEnv):
         ]
         self.observation_spaces = {a: group_obs[t.groups[i]] for a, i in self._index.items()}
         self.action_spaces = {a: group_act[t.groups[i]] for a, i in self._index.items()}
-        self.reading_names = [l.names for l in t.layouts][0]
+        self.reading_names = t.names(0)
         self.world: Optional[formica.World] = None
         self._wheels = np.zeros((t.n, 2), dtype=np.float32)
         self._dist = math.nan
@@ -232,7 +260,7 @@ class TransportParallelEnv(ParallelEnv):
         rows = {}
         for g in range(len(self._task.layouts)):
             idx = np.flatnonzero(self._task.groups == g)
-            r = self.world.readings(group=g)
+            r = self._task.view(self.world.readings(group=g), g)
             for k, i in enumerate(idx):
                 rows[self.possible_agents[i]] = r[k]
         return rows
@@ -319,12 +347,12 @@ class TransportGymEnv(gymnasium.Env):
             raise ValueError("formica environments do not render; use `formica serve` to watch")
         self._task = _Task(scenario, **options)
         t = self._task
-        layout = t.uniform_layout()
+        t.uniform_layout()  # one layout for every robot: refused otherwise
         self.observation_space = t.robots_space()
         speed = np.array([t.layouts[g].max_speed for g in t.groups], dtype=np.float32)
         speed = np.repeat(speed[:, None], 2, axis=1)
         self.action_space = spaces.Box(-speed, speed, dtype=np.float32)
-        self.reading_names = layout.names
+        self.reading_names = t.names(0)
         self.world: Optional[formica.World] = None
         self._dist = math.nan
         self._steps = 0
@@ -338,7 +366,7 @@ class TransportGymEnv(gymnasium.Env):
         self._dist = self.world.goal_distance
         self._steps = 0
         self._ended = False
-        return self.world.readings(), {"seed": s}
+        return self._task.view(self.world.readings()), {"seed": s}
 
     def step(self, action):
         if self.world is None or self._ended:
@@ -360,7 +388,7 @@ class TransportGymEnv(gymnasium.Env):
         )
         info = {"outcome": outcome, "goal_distance": dist, "tick": self.world.tick}
         self._ended = terminated or truncated
-        return self.world.readings(), reward, terminated, truncated, info
+        return self._task.view(self.world.readings()), reward, terminated, truncated, info
 
 
 class TransportVectorEnv(gymnasium.vector.VectorEnv):
@@ -378,7 +406,7 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
         self._task = _Task(scenario, **options)
         t = self._task
         self.num_envs = int(num_envs)
-        layout = t.uniform_layout()
+        t.uniform_layout()  # one layout for every robot: refused otherwise
         self.single_observation_space = t.robots_space()
         speed = np.array([t.layouts[g].max_speed for g in t.groups], dtype=np.float32)
         speed = np.repeat(speed[:, None], 2, axis=1)
@@ -389,7 +417,7 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
         self.action_space = gymnasium.vector.utils.batch_space(
             self.single_action_space, self.num_envs
         )
-        self.reading_names = layout.names
+        self.reading_names = t.names(0)
         self.worlds: Optional[formica.Worlds] = None
         self._dist = np.full(self.num_envs, np.nan)
         self._steps = np.zeros(self.num_envs, dtype=np.int64)
@@ -402,7 +430,7 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
         self.worlds.step(None, 1)
         self._dist = self.worlds.goal_distances
         self._steps[:] = 0
-        self._obs = self.worlds.readings()
+        self._obs = t.view(self.worlds.readings())
         return self._obs, {"seed": np.array(seeds)}
 
     def step(self, actions):
@@ -420,7 +448,7 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
         truncated = ~terminated & (codes == 3)
         if t.max_steps is not None:
             truncated |= ~terminated & (self._steps >= t.max_steps)
-        obs = self.worlds.readings()
+        obs = t.view(self.worlds.readings())
         done = terminated | truncated
         infos: dict[str, Any] = {"outcome": codes, "goal_distance": dist}
         if done.any():
@@ -431,7 +459,7 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
                 self.worlds.reset(int(i), t.take_seed(None), ticks=1)
             infos["final_obs"] = final
             infos["_final_obs"] = done
-            obs = self.worlds.readings()
+            obs = t.view(self.worlds.readings())
             dist = np.where(done, self.worlds.goal_distances, dist)
             self._steps[done] = 0
         self._dist = dist

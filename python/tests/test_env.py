@@ -173,3 +173,27 @@ def test_observations_stay_within_bounds_that_the_arena_and_noise_give():
         steps, done = steps + 1, term or trunc
     assert space.contains(obs)
     assert steps == 120 or term
+
+
+def test_positioning_false_leaves_the_robots_own_position_out_of_every_observation():
+    # A robot with no overhead tracker: no x, y, theta in what the policy sees, in each form.
+    opts = dict(robots=4, seed=3, positioning=False, sensors=("proximity", "light"))
+    full = fenv.TransportGymEnv(robots=4, seed=3, sensors=("proximity", "light"))
+    blind = fenv.TransportGymEnv(**opts)
+    assert {"x", "y", "theta"} <= set(full.reading_names)
+    assert not {"x", "y", "theta"} & set(blind.reading_names)
+    assert len(blind.reading_names) == len(full.reading_names) - 3
+    a, _ = full.reset(seed=3)
+    b, _ = blind.reset(seed=3)
+    kept = [full.reading_names.index(n) for n in blind.reading_names]
+    assert np.array_equal(a[:, kept], b)  # the same world, the position columns dropped
+    assert blind.observation_space.shape == b.shape and blind.observation_space.contains(b)
+    par = fenv.parallel_env(**opts)
+    obs, _ = par.reset(seed=3)
+    assert all(o.shape == (len(blind.reading_names),) for o in obs.values())
+    assert all(par.observation_space(k).contains(o) for k, o in obs.items())
+    vec = fenv.vector_env(2, **opts)
+    v, _ = vec.reset(seed=3)
+    assert v.shape == (2, 4, len(blind.reading_names)) and np.array_equal(v[0], b)
+    with pytest.raises(ValueError, match="positioning: expected True or False"):
+        fenv.TransportGymEnv(positioning="no")
