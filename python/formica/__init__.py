@@ -281,7 +281,9 @@ def register_controller(name: str, cls: Optional[type] = None, *, needs: Optiona
     (``controller = "name"``) run through Python: ``run``, ``sweep``, ``World``.
 
     Each robot gets ``cls(layout, **params)`` (``layout``: a :class:`Layout`; ``params``: the
-    group's ``params`` table). Before its first step the instance gets ``self.rng``, the
+    group's ``params`` table); one more instance is made, and dropped, as each world is built,
+    to check the parameters where the scenario is checked, so keep ``__init__`` free of side
+    effects that count robots. Before its first step the instance gets ``self.rng``, the
     robot's own :class:`Rng` (draw only from it and runs stay deterministic per seed). Every
     tick ``step(readings)`` gets a :class:`Readings` and returns ``(left, right)`` wheel speeds
     (m/s), optionally followed by an LED colour (a name from ``COLORS``, a code, or None) and an

@@ -48,8 +48,8 @@ pub(crate) fn type_name(v: &Bound<'_, PyAny>) -> String {
         .unwrap_or_default()
 }
 
-/// A number argument that refuses `True` and `False`: Python's bool is an int, so `seed=True`
-/// would run seed 1 and `duration=True` one second.
+/// A number argument that refuses `True` and `False` (Python's bool is an int, so `seed=True`
+/// would run seed 1 and `duration=True` one second), and says that a negative one is negative.
 pub(crate) struct NotBool<T>(pub(crate) T);
 
 impl<'a, 'py, T: FromPyObject<'a, 'py>> FromPyObject<'a, 'py> for NotBool<T> {
@@ -61,7 +61,17 @@ impl<'a, 'py, T: FromPyObject<'a, 'py>> FromPyObject<'a, 'py> for NotBool<T> {
                 "expected a number, got a bool",
             ));
         }
-        obj.extract::<T>().map(NotBool).map_err(Into::into)
+        obj.extract::<T>().map(NotBool).map_err(|e| {
+            // A negative int for an unsigned one: say so, not "can't convert negative int to
+            // unsigned" (an OverflowError).
+            let e: PyErr = e.into();
+            match obj.extract::<i64>() {
+                Ok(v) if v < 0 => pyo3::exceptions::PyValueError::new_err(format!(
+                    "expected a whole number, 0 or more, got {v}"
+                )),
+                _ => e,
+            }
+        })
     }
 }
 

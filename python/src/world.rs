@@ -553,8 +553,9 @@ impl PyWorld {
 
     /// Advances `n` ticks, or fewer if the run ends; returns the outcome (`"success"`,
     /// `"wall"`, `"timeout"`) once the run is over, else None. Ctrl-C interrupts it.
-    #[pyo3(signature = (n = 1))]
-    fn step(&self, py: Python<'_>, n: u64) -> PyResult<Option<&'static str>> {
+    #[pyo3(signature = (n = NotBool(1)))]
+    fn step(&self, py: Python<'_>, n: NotBool<u64>) -> PyResult<Option<&'static str>> {
+        let n = n.0;
         guard(|| {
             let mut g = self.sim()?;
             Ok(g.ticks_interruptibly(py, n)?.map(Outcome::name))
@@ -563,7 +564,7 @@ impl PyWorld {
 
     /// Steps to the end of the run and returns its result (as `run`).
     fn run<'py>(&self, py: Python<'py>) -> PyResult<Py<PyAny>> {
-        self.step(py, u64::MAX)?;
+        self.step(py, NotBool(u64::MAX))?;
         self.result(py)
     }
 

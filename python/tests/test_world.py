@@ -350,6 +350,11 @@ def test_a_bool_is_not_taken_for_a_number():
         formica.run(SEED_TRANSPORT, seeds=[1], duration=False)
     with pytest.raises(TypeError, match="got a bool"):
         formica.run(SEED_TRANSPORT, seeds=[1], threads=True)
+    # A negative one is said to be negative (it was "can't convert negative int to unsigned").
+    with pytest.raises(ValueError, match="0 or more, got -1"):
+        formica.World(SEED_TRANSPORT, seed=-1)
+    with pytest.raises(ValueError, match="0 or more, got -2"):
+        formica.World(SEED_TRANSPORT).step(-2)
 
 
 def test_the_goal_radius_is_none_without_a_goal():

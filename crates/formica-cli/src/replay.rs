@@ -147,13 +147,31 @@ impl Replayer {
         let name = store_name(&self.db);
         let sc = match self.store.scenario(want)? {
             Some((file, toml)) if !want.is_empty() => {
+                // Positions are in the stored text (the file with the trial's overrides), not
+                // in the file on disk: say so in the place.
                 Scenario::parse(&toml, &file).map_err(|e| {
+                    let e = match e {
+                        formica::ScenarioError::Invalid {
+                            line,
+                            column,
+                            message,
+                            ..
+                        } => formica::ScenarioError::Invalid {
+                            file: format!("{file} as stored in {name}"),
+                            line,
+                            column,
+                            message,
+                        },
+                        e => e,
+                    };
                     CliError::Input(format!(
                         "{name}: trial {}'s stored scenario does not parse with this program: {e} \
-                         (a store written by a program with its own controllers or models, such \
-                         as examples/custom-controller's formica-phototaxis, is replayed with \
-                         that program; otherwise the store is from another Formica)",
-                        t.trial
+                         (a store written by a program with its own controllers or models is \
+                         replayed with that program: a Rust one such as examples/custom-controller's \
+                         formica-phototaxis, or, for controllers registered from Python, Python \
+                         with them registered: formica.cli(\"run\", \"--db\", \"{name}\", \
+                         \"--trial\", \"{}\"); otherwise the store is from another Formica)",
+                        t.trial, t.trial
                     ))
                 })?
             }

@@ -251,6 +251,33 @@ fn a_replay_that_differs_from_the_store_fails() {
 }
 
 #[test]
+fn a_store_of_a_controller_this_program_lacks_says_where_to_replay_it() {
+    // As a store written through Python with a controller registered there reads to the
+    // command line: the stored scenario names a controller it does not know.
+    let dir = tmp("lacks");
+    let db = smoke_store(&dir);
+    conn(&db)
+        .execute(
+            "UPDATE scenarios SET toml = replace(toml, '\"occlusion\"', '\"py-mine\"')",
+            [],
+        )
+        .unwrap();
+    let o = formica()
+        .args(["run", "--trial", "0", "--db"])
+        .arg(&db)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("as stored in smoke.db:")
+            && err.contains("unknown controller `py-mine`")
+            && err.contains("formica.cli(\"run\", \"--db\", \"smoke.db\", \"--trial\", \"0\")"),
+        "{err}"
+    );
+}
+
+#[test]
 fn report_lists_failed_trials_with_replay_commands_and_a_gallery() {
     let dir = tmp("report");
     let db = smoke_store(&dir);
