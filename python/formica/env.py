@@ -396,7 +396,9 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
     autoreset): observations ``[E, N, L]``, actions ``[E, N, 2]``, rewards ``[E]``. A world that
     ends is rebuilt at once with the next seed; its last observation is in
     ``infos["final_obs"]`` (where ``infos["_final_obs"]`` is true), its outcome code (1
-    success, 2 wall, 3 timeout) in ``infos["outcome"]``."""
+    success, 2 wall, 3 timeout; 0 while it runs) in ``infos["outcome"]``, with the masks
+    ``infos["_outcome"]`` and ``infos["_goal_distance"]`` (all true) of Gymnasium's
+    vector-info convention."""
 
     metadata = {"render_modes": [], "autoreset_mode": gymnasium.vector.AutoresetMode.SAME_STEP}
 
@@ -450,7 +452,15 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
             truncated |= ~terminated & (self._steps >= t.max_steps)
         obs = t.view(self.worlds.readings())
         done = terminated | truncated
-        infos: dict[str, Any] = {"outcome": codes, "goal_distance": dist}
+        # Every world has both every step: their masks (Gymnasium's vector-info convention)
+        # are all true.
+        every = np.ones(self.num_envs, dtype=bool)
+        infos: dict[str, Any] = {
+            "outcome": codes,
+            "_outcome": every,
+            "goal_distance": dist,
+            "_goal_distance": every.copy(),
+        }
         if done.any():
             final = np.empty(self.num_envs, dtype=object)
             for i in np.flatnonzero(done):

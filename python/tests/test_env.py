@@ -80,6 +80,9 @@ def test_the_vectorised_form_steps_many_worlds_and_autoresets():
         assert rew.shape == (4,) and not trunc.any() and "final_obs" not in info
     obs, rew, term, trunc, info = venv.step(actions)
     assert trunc.all() and info["_final_obs"].all() and info["final_obs"][0].shape == (5, 24)
+    # Each info array has its mask, as Gymnasium's vector infos do: every world has both.
+    assert info["_outcome"].all() and info["_goal_distance"].all()
+    assert info["outcome"].tolist() == [0, 0, 0, 0]  # truncated by max_steps, not ended
     # Rebuilt at once with the next seeds, first tick done.
     assert venv.worlds.seeds == [104, 105, 106, 107] and venv.worlds.ticks.tolist() == [1, 1, 1, 1]
     with pytest.raises(ValueError, match=r"shape \(4, 5, 2\)"):
