@@ -438,6 +438,9 @@ fn check_takes_the_controller_override_run_takes() {
             && err.contains("--set 'robots.1.params={}'"),
         "{err}"
     );
+    // Placed at the params the new controller refused (line 48), not at the file's
+    // controller line.
+    assert!(err.contains("mixed-swarm-u.toml:48:"), "{err}");
     let out = formica()
         .arg("check")
         .arg(repo("scenarios/mixed-swarm-u.toml"))

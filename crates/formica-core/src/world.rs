@@ -522,9 +522,11 @@ impl World {
             let factory = registry
                 .build_controller(&name, grp.params.as_ref().map(|p| p.get_ref()), &layout)
                 .map_err(|m| {
-                    let span = match (&grp.params, ov.controller.is_some()) {
-                        (Some(p), false) => p.span(),
-                        _ => grp.controller.span(),
+                    // At the params (the file's line, or the `--set` that wrote them): they are
+                    // what the controller refused, whichever controller it is.
+                    let span = match &grp.params {
+                        Some(p) => p.span(),
+                        None => grp.controller.span(),
                     };
                     // Another controller than the file's keeps the file's params, which may
                     // be for the file's controller only: say so, and what to do.
