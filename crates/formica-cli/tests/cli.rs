@@ -439,8 +439,20 @@ fn check_takes_the_controller_override_run_takes() {
         "{err}"
     );
     // Placed at the params the new controller refused (line 48), not at the file's
-    // controller line.
+    // controller line; `run --controller` too (qm-middle's params are on line 55).
     assert!(err.contains("mixed-swarm-u.toml:48:"), "{err}");
+    let err = input_error(
+        formica()
+            .arg("run")
+            .arg(repo("scenarios/qm-middle.toml"))
+            .args(["--controller", "random-walk", "--duration", "1"])
+            .output()
+            .unwrap(),
+    );
+    assert!(
+        err.contains("qm-middle.toml:55:") && err.contains("written for `occlusion`"),
+        "{err}"
+    );
     let out = formica()
         .arg("check")
         .arg(repo("scenarios/mixed-swarm-u.toml"))
