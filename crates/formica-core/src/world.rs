@@ -632,8 +632,8 @@ impl World {
     /// physics has built its query tree.
     ///
     /// # Panics
-    /// When a controller gave a robot a wheel speed that is not a finite number (a bug in the
-    /// controller; the message names it, the robot and the time).
+    /// When a controller gave a robot a wheel speed that is NaN (a bug in the controller; the
+    /// message names it, the robot and the time).
     pub fn step(&mut self) {
         self.step_with(|_| {});
     }
@@ -765,11 +765,12 @@ impl World {
             let grp = &self.groups[r.group];
             let top = grp.model.max_speed;
             // A controller's bug, said where it happens: a NaN wheel speed left the robot
-            // standing for the rest of the run, as if it chose to.
+            // standing for the rest of the run, as if it chose to. (An infinite one is capped
+            // at the top speed, as every speed above it is.)
             assert!(
-                action.left.is_finite() && action.right.is_finite(),
+                !action.left.is_nan() && !action.right.is_nan(),
                 "controller `{}` gave robot {i} the wheel speeds ({}, {}) at {:.1} s: wheel \
-                 speeds must be finite numbers (m/s)",
+                 speeds must be numbers (m/s), not NaN",
                 grp.controller,
                 action.left,
                 action.right,

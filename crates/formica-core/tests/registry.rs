@@ -290,7 +290,7 @@ fn a_nan_wheel_speed_stops_the_run_naming_the_controller_not_a_robot_standing_st
     let msg = err.downcast_ref::<String>().cloned().unwrap_or_default();
     assert!(
         msg.contains("controller `goes-nan` gave robot 0 the wheel speeds (NaN, 0.1)")
-            && msg.contains("must be finite numbers"),
+            && msg.contains("not NaN"),
         "{msg}"
     );
 }

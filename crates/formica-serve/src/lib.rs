@@ -389,8 +389,24 @@ fn handle(shared: &Shared, mut stream: TcpStream, slot: Slot, timeout: Duration)
     drop(slot);
 }
 
+/// Runs `f` on the simulation, turning a panic in it (a controller's bug, such as a NaN wheel
+/// speed) into its message: the simulation thread must outlive it, or every later request,
+/// restart included, would be told the simulation is busy.
+fn unpanicked<T>(f: impl FnOnce() -> T) -> Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|payload| {
+        payload
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_else(|| "(no message)".into())
+    })
+}
+
 /// The simulation thread: answers commands, and between them steps the world while it plays.
+/// A panic while stepping stops the world where it was: it is still shown, stepping and playing
+/// are refused with the panic's message (500), and a restart builds a new world.
 fn sim_loop(mut sim: Sim, rx: &Receiver<Cmd>, counters: &Counters) {
+    let mut failed: Option<String> = None;
     let mut last = Instant::now();
     counters
         .path_points
@@ -410,7 +426,26 @@ fn sim_loop(mut sim: Sim, rx: &Receiver<Cmd>, counters: &Counters) {
                 let _ = reply.try_send(sim.robot_json(i));
             }
             Ok(Cmd::Control(c, q, reply)) => {
-                let r = control(&mut sim, c).map(|()| sim.state_json(q));
+                let r = match (&failed, c) {
+                    (Some(m), Control::Step(_) | Control::Play) => Err(Response::error(
+                        500,
+                        &format!("the run stopped: {m}; restart it (with another seed, or fixed)"),
+                    )),
+                    _ => match unpanicked(|| control(&mut sim, c)) {
+                        Ok(r) => {
+                            if matches!(c, Control::Restart(_)) && r.is_ok() {
+                                failed = None;
+                            }
+                            r.map(|()| sim.state_json(q))
+                        }
+                        Err(m) => {
+                            sim.set_playing(false);
+                            let r = Err(Response::error(500, &format!("the run stopped: {m}")));
+                            failed = Some(m);
+                            r
+                        }
+                    },
+                };
                 if matches!(c, Control::Step(_)) {
                     counters.stepping.store(false, Ordering::SeqCst);
                 }
@@ -422,7 +457,12 @@ fn sim_loop(mut sim: Sim, rx: &Receiver<Cmd>, counters: &Counters) {
         let now = Instant::now();
         let dt = (now - last).as_secs_f64().min(0.25);
         last = now;
-        sim.advance(dt, Duration::from_millis(40));
+        if failed.is_none() {
+            if let Err(m) = unpanicked(|| sim.advance(dt, Duration::from_millis(40))) {
+                sim.set_playing(false);
+                failed = Some(m);
+            }
+        }
         counters
             .path_points
             .store(sim.path_points(), Ordering::SeqCst);

@@ -192,6 +192,57 @@ fn serves_only_its_own_assets() {
     }
 }
 
+/// Drives ahead, then from its third step on with a NaN left wheel (a controller's bug).
+struct GoesNan(u32);
+
+impl formica::controller::Controller for GoesNan {
+    fn step(
+        &mut self,
+        _r: &formica::sensors::Readings,
+        _rng: &mut formica::controller::RobotRng,
+    ) -> formica::controller::Actuation {
+        self.0 += 1;
+        formica::controller::Actuation {
+            left: if self.0 >= 3 { f32::NAN } else { 0.1 },
+            right: 0.1,
+            ..Default::default()
+        }
+    }
+    fn state(&self) -> &'static str {
+        "driving"
+    }
+}
+
+#[test]
+fn a_controller_panic_stops_the_run_not_the_server() {
+    // It killed the simulation thread: every later request, restart included, was "busy".
+    let mut reg = formica::Registry::builtin();
+    reg.controller("goes-nan", |_, _| {
+        Ok(formica::controller::ControllerFactory::new(
+            formica::sensors::SensorNeeds::default(),
+            || Box::new(GoesNan(0)),
+        ))
+    })
+    .unwrap();
+    let text = SMALL.replace("controller = \"constant\"", "controller = \"goes-nan\"");
+    let text = text.replace("params = { left = 0.1, right = 0.1, led = \"red\" }\n", "");
+    let r = start(reg.parse(&text, "nan.toml").expect("parses"));
+    let (code, body) = req(r.addr(), "POST", "/api/step?n=10");
+    assert_eq!(code, 500, "{body}");
+    assert!(
+        body.contains("the run stopped") && body.contains("goes-nan") && body.contains("NaN"),
+        "{body}"
+    );
+    // The world stays to be looked at; stepping it again is refused with the reason.
+    assert_eq!(req(r.addr(), "GET", "/api/state").0, 200);
+    let (code, body) = req(r.addr(), "POST", "/api/step?n=1");
+    assert_eq!(code, 500, "{body}");
+    assert!(body.contains("restart it"), "{body}");
+    // A restart builds a new world, which steps until its controller fails again.
+    assert_eq!(req(r.addr(), "POST", "/api/restart?seed=2").0, 200);
+    assert_eq!(req(r.addr(), "POST", "/api/step?n=1").0, 200);
+}
+
 #[test]
 fn bad_requests_get_errors_never_a_crash() {
     let r = start(small());
@@ -215,7 +266,12 @@ fn bad_requests_get_errors_never_a_crash() {
             b"POST /api/step HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n".to_vec(),
             501,
         ),
-        (b"GET /?x=%zz HTTP/1.1\r\n\r\n".to_vec(), 400),
+        // With its Host, so that the bad query, not the missing Host, is what is refused.
+        (
+            b"GET /?x=%zz HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".to_vec(),
+            400,
+        ),
+        (b"GET /api/state HTTP/1.1\r\n\r\n".to_vec(), 400),
         (
             b"GET /api/state HTTP/1.1\r\nHost: a\r\nHost: b\r\n\r\n".to_vec(),
             400,
