@@ -470,39 +470,44 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
     }
 }
 
-thread_local! {
-    /// Whether this thread runs a trial inside [`caught`] (its panic is reported as an error).
-    static IN_TRIAL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-    /// Where the last panic inside [`caught`] on this thread happened, and its message.
-    static LAST_PANIC: std::cell::RefCell<Option<String>> = const { std::cell::RefCell::new(None) };
-}
+/// How many trials run inside [`caught`] now, on any thread: while one does, a panic with a
+/// message is reported by it, not printed by the hook (a trial's world may step on threads of
+/// its own pool, whose panic comes back to the trial's thread).
+static IN_TRIALS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// Where the last panic reported by [`caught`] happened, and its message, on any thread.
+static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
 
 /// Runs one trial's work, turning a panic in it (a bug in a controller, such as a NaN wheel
 /// speed, or in Formica) into an error that says where and why: a run of many seeds, or a
 /// sweep, reports it once, as an error line with the trial, instead of a panic message from
-/// every worker thread, and a sweep keeps running its other trials.
+/// every worker thread, and a sweep keeps running its other trials. A panic that carries
+/// something else than a message (an embedder's, such as the Python package's controller
+/// exceptions) is printed and unwinds on as before.
 pub(crate) fn caught<T>(f: impl FnOnce() -> Result<T, CliError>) -> Result<T, CliError> {
+    use std::sync::atomic::Ordering;
     static HOOK: std::sync::Once = std::sync::Once::new();
     HOOK.call_once(|| {
         let previous = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            if IN_TRIAL.with(std::cell::Cell::get) {
+            let message = info.payload().is::<String>() || info.payload().is::<&str>();
+            if message && IN_TRIALS.load(Ordering::SeqCst) > 0 {
                 let at = info
                     .location()
                     .map(|l| format!(" at {}:{}", l.file(), l.line()))
                     .unwrap_or_default();
-                LAST_PANIC.with(|p| *p.borrow_mut() = Some(at));
+                if let Ok(mut last) = LAST_PANIC.lock() {
+                    *last = Some(at);
+                }
             } else {
                 previous(info);
             }
         }));
     });
-    let was = IN_TRIAL.with(|t| t.replace(true));
+    IN_TRIALS.fetch_add(1, Ordering::SeqCst);
     let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-    IN_TRIAL.with(|t| t.set(was));
+    IN_TRIALS.fetch_sub(1, Ordering::SeqCst);
     out.unwrap_or_else(|payload| {
-        // A panic that carries something else than a message is an embedder's (the Python
-        // package carries a controller's exception this way): it goes on unwinding to it.
         let Some(message) = payload
             .downcast_ref::<String>()
             .cloned()
@@ -510,8 +515,12 @@ pub(crate) fn caught<T>(f: impl FnOnce() -> Result<T, CliError>) -> Result<T, Cl
         else {
             std::panic::resume_unwind(payload)
         };
+        // The place of this panic, or of one beside it on another trial's thread (two trials
+        // that panic at once may swap places; the messages are their own).
         let at = LAST_PANIC
-            .with(|p| p.borrow_mut().take())
+            .lock()
+            .ok()
+            .and_then(|mut last| last.take())
             .unwrap_or_default();
         Err(CliError::Other(anyhow::anyhow!(
             "stopped by a panic{at}: {message} (a bug in a controller, or in Formica: please \
@@ -543,8 +552,7 @@ mod tests {
             "{text}"
         );
         assert!(matches!(err, CliError::Other(_)));
-        // Outside a trial nothing is changed: the flag is down again; values pass through.
-        assert!(!IN_TRIAL.with(std::cell::Cell::get));
+        // Values pass through.
         assert_eq!(caught(|| Ok(7)).ok(), Some(7));
         // Another payload (an embedder's) unwinds on, untouched.
         struct Carried(u8);

@@ -181,9 +181,10 @@ where
         }
     }
     let ns = p.series.len().max(1);
+    let texts = legend_texts(p.series.iter().map(|(n, _)| n.as_str()));
     let width = 0.5_f64.min(0.15 * ns as f64);
     let mut marks: Vec<(i32, i32)> = Vec::new();
-    for (s, (name, ests)) in p.series.iter().enumerate() {
+    for (s, (_, ests)) in p.series.iter().enumerate() {
         let c = color(s);
         let off = if ns > 1 {
             -width / 2.0 + width * s as f64 / (ns - 1) as f64
@@ -238,13 +239,12 @@ where
             .map_err(|e| anyhow!("{e}"))?;
         if ns > 1 {
             series
-                .label(legend_text(name))
+                .label(texts[s].as_str())
                 .legend(move |(x, y)| Circle::new((x + 10, y), 5, c.filled()));
         }
     }
     if ns > 1 {
-        let labels: Vec<String> = p.series.iter().map(|(n, _)| legend_text(n)).collect();
-        let corner = legend_corner(chart.plotting_area().get_pixel_range(), &labels, &marks);
+        let corner = legend_corner(chart.plotting_area().get_pixel_range(), &texts, &marks);
         draw_legend(&mut chart, corner)?;
     }
     root.present().map_err(|e| anyhow!("{e}"))?;
@@ -297,6 +297,7 @@ where
         .draw()
         .map_err(|e| anyhow!("{e}"))?;
     let mut marks: Vec<(i32, i32)> = Vec::new();
+    let texts = legend_texts(p.curves.iter().map(|(n, _)| n.as_str()));
     for (i, (name, pts)) in p.curves.iter().enumerate() {
         let c = color(p.colors.get(i).copied().unwrap_or(i));
         let mut line: Vec<(f64, f64)> = Vec::with_capacity(pts.len() * 2);
@@ -316,17 +317,18 @@ where
             .draw_series(LineSeries::new(line, c.stroke_width(2)))
             .map_err(|e| anyhow!("{e}"))?;
         if p.legend && !name.is_empty() {
-            s.label(legend_text(name)).legend(move |(x, y)| {
+            s.label(texts[i].as_str()).legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
             });
         }
     }
     if p.legend && !p.curves.is_empty() {
-        let labels: Vec<String> = p
+        let labels: Vec<&String> = p
             .curves
             .iter()
-            .filter(|(n, _)| !n.is_empty())
-            .map(|(n, _)| legend_text(n))
+            .zip(&texts)
+            .filter(|((n, _), _)| !n.is_empty())
+            .map(|(_, t)| t)
             .collect();
         let corner = legend_corner(chart.plotting_area().get_pixel_range(), &labels, &marks);
         draw_legend(&mut chart, corner)?;
@@ -446,6 +448,25 @@ const LEGEND_CHARS: usize = 48;
 
 /// A legend entry: `name` on one line, its middle cut out ("...") where longer than
 /// [`LEGEND_CHARS`], keeping both ends (two values may differ at either).
+/// The legend entries of `names`, each as [`legend_text`] gives it; where two different names
+/// would read alike once cut, each of those is numbered (`2: ...`) so that no two read alike.
+fn legend_texts<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
+    let names: Vec<&str> = names.collect();
+    let cut: Vec<String> = names.iter().map(|n| legend_text(n)).collect();
+    let clash =
+        |i: usize| (0..cut.len()).any(|j| j != i && cut[j] == cut[i] && names[j] != names[i]);
+    (0..cut.len())
+        .map(|i| {
+            if clash(i) {
+                let numbered = format!("{}: {}", i + 1, cut[i]);
+                legend_text(&numbered)
+            } else {
+                cut[i].clone()
+            }
+        })
+        .collect()
+}
+
 fn legend_text(name: &str) -> String {
     let chars: Vec<char> = name
         .chars()
@@ -634,6 +655,17 @@ mod tests {
         assert_eq!(cut.chars().count(), LEGEND_CHARS);
         assert!(cut.starts_with("xxx") && cut.ends_with(" alpha") && cut.contains("..."));
         assert_ne!(cut, legend_text(&long.replace("alpha", "beta")));
+        // Two that differ only in the middle are numbered apart; the rest are left alone.
+        let a = format!("{} 5.0 {}", "x".repeat(40), "y".repeat(40));
+        let b = a.replace("5.0", "2.0");
+        let texts = legend_texts([a.as_str(), b.as_str(), "short"].into_iter());
+        assert_ne!(texts[0], texts[1]);
+        assert!(
+            texts[0].starts_with("1: ") && texts[1].starts_with("2: "),
+            "{texts:?}"
+        );
+        assert_eq!(texts[2], "short");
+        assert!(texts.iter().all(|t| t.chars().count() <= LEGEND_CHARS));
     }
 
     #[test]

@@ -169,9 +169,11 @@ impl Replayer {
                          (a store written by a program with its own controllers or models is \
                          replayed with that program: a Rust one such as examples/custom-controller's \
                          formica-phototaxis, or, for controllers registered from Python, Python \
-                         with them registered: formica.cli(\"run\", \"--db\", \"{name}\", \
+                         with them registered: formica.cli(\"run\", \"--db\", {:?}, \
                          \"--trial\", \"{}\"); otherwise the store is from another Formica)",
-                        t.trial, t.trial
+                        t.trial,
+                        self.db.display().to_string(),
+                        t.trial
                     ))
                 })?
             }

@@ -269,10 +269,15 @@ fn a_store_of_a_controller_this_program_lacks_says_where_to_replay_it() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
+    // The store as given (here a full path), so that the call works from where it was run.
+    let call = format!(
+        "formica.cli(\"run\", \"--db\", {:?}, \"--trial\", \"0\")",
+        db.display().to_string()
+    );
     assert!(
         err.contains("as stored in smoke.db:")
             && err.contains("unknown controller `py-mine`")
-            && err.contains("formica.cli(\"run\", \"--db\", \"smoke.db\", \"--trial\", \"0\")"),
+            && err.contains(&call),
         "{err}"
     );
 }

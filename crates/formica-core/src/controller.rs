@@ -416,6 +416,11 @@ fn with_key<P: serde::de::DeserializeOwned>(table: &toml::Table, message: &str) 
     let located = || {
         let text = toml::to_string(table).ok()?;
         let span = toml::from_str::<P>(&text).err()?.span()?;
+        // A missing key is reported at the whole table (an empty span at its start), which
+        // is no key's place; the message names the key itself.
+        if span.is_empty() || message.starts_with("missing field") {
+            return None;
+        }
         let path = crate::limits::path_at(&text, span.start);
         let last = path.last()?;
         (!message.contains(&format!("`{last}`"))).then(|| path.join("."))
@@ -504,6 +509,9 @@ mod tests {
         // An unknown key names itself once; parameters that read are read as they are.
         let err = parse_params::<P>(Some(&table("speed = 1.0\nsped = 2.0"))).unwrap_err();
         assert!(err.starts_with("unknown field `sped`"), "{err}");
+        // A missing one is no other key's fault.
+        let err = parse_params::<P>(Some(&table("push = { spread_s = 1.0 }"))).unwrap_err();
+        assert!(err.starts_with("missing field `speed`"), "{err}");
         assert_eq!(
             parse_params::<P>(Some(&table("speed = 0.1")))
                 .unwrap()
