@@ -396,7 +396,8 @@ class TransportVectorEnv(gymnasium.vector.VectorEnv):
     autoreset): observations ``[E, N, L]``, actions ``[E, N, 2]``, rewards ``[E]``. A world that
     ends is rebuilt at once with the next seed; its last observation is in
     ``infos["final_obs"]`` (where ``infos["_final_obs"]`` is true), its outcome code (1
-    success, 2 wall, 3 timeout; 0 while it runs) in ``infos["outcome"]``, with the masks
+    success, 2 wall, 3 timeout; 0 for a world whose run has not ended, also one cut off by
+    ``max_steps``) in ``infos["outcome"]``, with the masks
     ``infos["_outcome"]`` and ``infos["_goal_distance"]`` (all true) of Gymnasium's
     vector-info convention."""
 

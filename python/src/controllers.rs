@@ -192,8 +192,9 @@ pub struct PyRng {
 impl PyRng {
     /// A stand-alone generator from `seed` (controllers get their robot's one instead).
     #[new]
-    #[pyo3(signature = (seed = 0))]
-    fn new(seed: u64) -> Self {
+    #[pyo3(signature = (seed = crate::NotBool(0)))]
+    fn new(seed: crate::NotBool<u64>) -> Self {
+        let seed = seed.0;
         Self {
             inner: formica::world::rng_stream(seed, 0x5059, 0),
         }
@@ -906,7 +907,7 @@ pub fn register_robot(name: String, cls: Py<PyAny>, needs: Vec<String>) -> PyRes
                         let obj = cls
                             .bind(py)
                             .call((py_layout.clone_ref(py),), Some(kwargs.bind(py)))?;
-                        let rng = Py::new(py, PyRng::new(0))?;
+                        let rng = Py::new(py, PyRng::new(crate::NotBool(0)))?;
                         obj.setattr(intern!(py, "rng"), rng.clone_ref(py))?;
                         let read_state = obj.hasattr(intern!(py, "state"))?;
                         Ok(RobotAdapter {

@@ -1084,8 +1084,15 @@ impl PyWorlds {
 
     /// Rebuilds world `index` from the scenario with `seed`, and runs its first `ticks`
     /// ticks with the robots' own controllers (`external`: standing still).
-    #[pyo3(signature = (index, seed, ticks = 0))]
-    fn reset(&self, py: Python<'_>, index: usize, seed: u64, ticks: u64) -> PyResult<()> {
+    #[pyo3(signature = (index, seed, ticks = NotBool(0)))]
+    fn reset(
+        &self,
+        py: Python<'_>,
+        index: NotBool<usize>,
+        seed: NotBool<u64>,
+        ticks: NotBool<u64>,
+    ) -> PyResult<()> {
+        let (index, seed, ticks) = (index.0, seed.0, ticks.0);
         guard(|| {
             let m = self.sims.get(index).ok_or_else(|| {
                 PyIndexError::new_err(format!("world {index}: there are {}", self.sims.len()))
@@ -1103,13 +1110,14 @@ impl PyWorlds {
     /// Sets every world's robots' wheel speeds (`[E, N, 2]`, m/s; None keeps what was set)
     /// and steps every world that is still running `ticks` ticks. Returns outcome codes `[E]`
     /// int8: 0 running, 1 success, 2 wall, 3 timeout.
-    #[pyo3(signature = (wheels = None, ticks = 1))]
+    #[pyo3(signature = (wheels = None, ticks = NotBool(1)))]
     fn step<'py>(
         &self,
         py: Python<'py>,
         wheels: Option<&Bound<'py, PyAny>>,
-        ticks: u64,
+        ticks: NotBool<u64>,
     ) -> PyResult<Bound<'py, PyArray1<i8>>> {
+        let ticks = ticks.0;
         guard(|| {
             let mut locks = self.locks()?;
             let (e, n) = (locks.len(), self.n);

@@ -350,6 +350,12 @@ def test_a_bool_is_not_taken_for_a_number():
         formica.run(SEED_TRANSPORT, seeds=[1], duration=False)
     with pytest.raises(TypeError, match="got a bool"):
         formica.run(SEED_TRANSPORT, seeds=[1], threads=True)
+    ws = formica.Worlds(SEED_TRANSPORT, [1, 2])
+    for call in (lambda: ws.reset(0, True), lambda: ws.step(None, True), lambda: formica.Rng(True)):
+        with pytest.raises(TypeError, match="got a bool"):
+            call()
+    with pytest.raises(ValueError, match="0 or more, got -1"):
+        ws.reset(0, -1)
     # A negative one is said to be negative (it was "can't convert negative int to unsigned").
     with pytest.raises(ValueError, match="0 or more, got -1"):
         formica.World(SEED_TRANSPORT, seed=-1)
