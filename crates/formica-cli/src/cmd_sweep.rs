@@ -343,17 +343,11 @@ pub fn main(a: Args) -> Result<(), CliError> {
             .collect()
     });
     drop(tx);
-    let written = writer
-        .join()
-        .map_err(|payload| {
-            // Its message too: while trials run, the panic hook leaves the reporting to us.
-            let message = payload
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_default();
-            CliError::Other(anyhow::anyhow!("the result writer panicked: {message}"))
-        })?;
+    let written = writer.join().map_err(|payload| {
+        // Its message too: while trials run, the panic hook leaves the reporting to us.
+        let message = crate::panic_message(payload.as_ref()).unwrap_or_default();
+        CliError::Other(anyhow::anyhow!("the result writer panicked: {message}"))
+    })?;
     let (n, ok, unjudged) = written?;
     bar.finish_and_clear();
     if let Some(f) = failures.first() {

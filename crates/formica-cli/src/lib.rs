@@ -470,6 +470,14 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
     }
 }
 
+/// The message a panic carries (`panic!` gives a `String` or a `&str`), if it carries one.
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> Option<String> {
+    payload
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+}
+
 /// How many trials run inside [`caught`] now, on any thread: while one does, a panic with a
 /// message is reported by it, not printed by the hook (a trial's world may step on threads of
 /// its own pool, whose panic comes back to the trial's thread).
@@ -508,11 +516,7 @@ pub(crate) fn caught<T>(f: impl FnOnce() -> Result<T, CliError>) -> Result<T, Cl
     let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
     IN_TRIALS.fetch_sub(1, Ordering::SeqCst);
     out.unwrap_or_else(|payload| {
-        let Some(message) = payload
-            .downcast_ref::<String>()
-            .cloned()
-            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-        else {
+        let Some(message) = panic_message(payload.as_ref()) else {
             std::panic::resume_unwind(payload)
         };
         // The place of this panic, or of one beside it on another trial's thread (two trials
