@@ -453,6 +453,33 @@ fn check_takes_the_controller_override_run_takes() {
         err.contains("qm-middle.toml:55:") && err.contains("written for `occlusion`"),
         "{err}"
     );
+    // A --set of one key merges into the file's params, whose keys are still refused: the
+    // hint stays; a --set of the whole table replaces them, and there is no file's to blame.
+    for (set, hint) in [
+        ("robots.0.params.speed=0.2", true),
+        ("robots.0.params={ speed = \"x\" }", false),
+    ] {
+        let err = input_error(
+            formica()
+                .arg("run")
+                .arg(repo("scenarios/qm-middle.toml"))
+                .args([
+                    "--controller",
+                    "random-walk",
+                    "--duration",
+                    "1",
+                    "--set",
+                    set,
+                ])
+                .output()
+                .unwrap(),
+        );
+        assert_eq!(
+            err.contains("written for `occlusion`"),
+            hint,
+            "{set}: {err}"
+        );
+    }
     let out = formica()
         .arg("check")
         .arg(repo("scenarios/mixed-swarm-u.toml"))

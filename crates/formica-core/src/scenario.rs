@@ -1446,27 +1446,25 @@ impl Scenario {
     }
 
     /// The controller that robot group `g`'s `params` were written for: the file's controller
-    /// of that group when the params come from the file (no override wrote them) and the file
-    /// names one; `None` otherwise. Lets an error about params that a replaced controller
-    /// refuses say whose they are.
+    /// of that group when the file gives the group params and no override replaced the whole
+    /// table (an override of one key, `robots.0.params.speed`, merges into the file's);
+    /// `None` otherwise. Lets an error about params that a replaced controller refuses say
+    /// whose they are.
     pub fn params_written_for(&self, g: usize) -> Option<String> {
         let grp = self.spec.robots.get(g)?.get_ref();
         grp.params.as_ref()?;
         let Some(o) = &self.overridden else {
             return Some(grp.controller.get_ref().clone());
         };
-        let mine = format!("robots.{g}.params");
-        let wrote_params = o.overrides.iter().any(|(k, _)| {
-            k == "robots"
-                || *k == format!("robots.{g}")
-                || k == &mine
-                || k.starts_with(&format!("{mine}."))
+        let replaced = o.overrides.iter().any(|(k, _)| {
+            k == "robots" || *k == format!("robots.{g}") || *k == format!("robots.{g}.params")
         });
-        if wrote_params {
+        if replaced {
             return None;
         }
         let base: toml::Table = o.base_text.parse().ok()?;
         let group = base.get("robots")?.as_array()?.get(g)?;
+        group.get("params")?;
         Some(group.get("controller")?.as_str()?.to_string())
     }
 
