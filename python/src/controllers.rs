@@ -106,28 +106,16 @@ fn parse_needs(needs: &[String], batched: bool) -> PyResult<SensorNeeds> {
 }
 
 /// The sensor behind an attribute of `Readings` (a slot of the readings vector, `beacon`,
-/// `blobs`, `scan`), when one must be asked for (`needs`).
-fn sensor_of_slot(slot: &str) -> Option<&'static str> {
-    match slot {
-        "proximity" => Some("proximity"),
-        "light" => Some("light"),
-        "beacon" | "beacon_x" | "beacon_y" | "has_beacon" => Some("beacon"),
-        "blobs" => Some("camera"),
-        "scan" => Some("scan"),
-        _ => None,
-    }
-}
-
-/// Whether `needs` holds the sensor named `sensor`.
-fn has_sensor(needs: &SensorNeeds, sensor: &str) -> bool {
-    match sensor {
-        "proximity" => needs.proximity,
-        "light" => needs.light,
-        "beacon" => needs.beacon,
-        "camera" => needs.camera,
-        "scan" => needs.scan,
-        _ => true,
-    }
+/// `blobs`, `scan`), when one must be asked for, and whether `needs` asks for it.
+fn sensor_of(attr: &str, needs: &SensorNeeds) -> Option<(&'static str, bool)> {
+    Some(match attr {
+        "proximity" => ("proximity", needs.proximity),
+        "light" => ("light", needs.light),
+        "beacon" | "beacon_x" | "beacon_y" | "has_beacon" => ("beacon", needs.beacon),
+        "blobs" => ("camera", needs.camera),
+        "scan" => ("scan", needs.scan),
+        _ => return None,
+    })
 }
 
 /// A TOML value as a Python object (datetimes as their TOML text).
@@ -444,15 +432,15 @@ pub struct PyReadings {
 }
 
 impl PyReadings {
-    /// An error unless the controller's `needs` hold `sensor`.
-    fn needed(&self, sensor: &str) -> PyResult<()> {
-        if has_sensor(&self.needs, sensor) {
-            return Ok(());
+    /// An error when attribute `attr` is a sensor's that the controller's `needs` leave out.
+    fn readable(&self, attr: &str) -> PyResult<()> {
+        match sensor_of(attr, &self.needs) {
+            Some((sensor, false)) => Err(pyo3::exceptions::PyAttributeError::new_err(format!(
+                "`{sensor}` is not read: this controller's needs leave it out (it is not \
+                 computed); add \"{sensor}\" to needs where the controller is registered"
+            ))),
+            _ => Ok(()),
         }
-        Err(pyo3::exceptions::PyAttributeError::new_err(format!(
-            "`{sensor}` is not read: this controller's needs leave it out (it is not \
-             computed); add \"{sensor}\" to needs where the controller is registered"
-        )))
     }
 
     fn get(&self, name: &str) -> Option<&[f32]> {
@@ -462,9 +450,7 @@ impl PyReadings {
     }
 
     fn scalar(&self, name: &str) -> PyResult<f32> {
-        if let Some(sensor) = sensor_of_slot(name) {
-            self.needed(sensor)?;
-        }
+        self.readable(name)?;
         match self.get(name) {
             Some([v]) => Ok(*v),
             _ => Err(pyo3::exceptions::PyAttributeError::new_err(format!(
@@ -474,9 +460,7 @@ impl PyReadings {
     }
 
     fn value<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
-        if let Some(sensor) = sensor_of_slot(name) {
-            self.needed(sensor)?;
-        }
+        self.readable(name)?;
         Ok(match self.get(name) {
             Some([v]) => Some(PyFloat::new(py, f64::from(*v)).into_any()),
             Some(vs) => Some(PyTuple::new(py, vs.iter().map(|v| f64::from(*v)))?.into_any()),
@@ -489,10 +473,7 @@ impl PyReadings {
 impl PyReadings {
     fn __getattr__<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         // Python comes here too when a getter (`beacon`, `blobs`, `scan`) raised
-        // AttributeError: say why, not that there is no such attribute.
-        if let Some(sensor) = sensor_of_slot(name) {
-            self.needed(sensor)?;
-        }
+        // AttributeError: `value` says why, not that there is no such attribute.
         self.value(py, name)?.ok_or_else(|| {
             pyo3::exceptions::PyAttributeError::new_err(format!(
                 "Readings has no `{name}`; slots: {}",
@@ -547,7 +528,7 @@ impl PyReadings {
     /// needs the camera).
     #[getter]
     fn blobs(&self) -> PyResult<Vec<(f32, f32, &'static str)>> {
-        self.needed("camera")?;
+        self.readable("blobs")?;
         Ok(self.blobs.clone())
     }
 
@@ -558,7 +539,7 @@ impl PyReadings {
     /// `scan`.
     #[getter]
     fn scan(&self) -> PyResult<Vec<(&'static str, f32)>> {
-        self.needed("scan")?;
+        self.readable("scan")?;
         Ok(self.scan.clone())
     }
 

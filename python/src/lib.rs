@@ -93,10 +93,7 @@ fn from_panic(payload: Box<dyn Any + Send>) -> PyErr {
     match payload.downcast::<Raised>() {
         Ok(r) => r.0,
         Err(p) => {
-            let text = p
-                .downcast_ref::<&str>()
-                .map(|s| (*s).to_string())
-                .or_else(|| p.downcast_ref::<String>().cloned())
+            let text = formica::world::panic_message(p.as_ref())
                 .unwrap_or_else(|| "(no message)".to_string());
             PanicError::new_err(format!("the simulator panicked: {text}"))
         }

@@ -78,15 +78,13 @@ pub fn main(a: Args) -> Result<(), CliError> {
         let c = w.object_center(i);
         let friction = floor_friction(&sc, w, i);
         // A static object's mass and floor friction play no part: they are not shown.
-        let load = if o.movable {
-            format!("movable, {} kg", o.mass)
+        let (load, rubs) = if o.movable {
+            (
+                format!("movable, {} kg", o.mass),
+                format!(", floor friction {friction:.2} N"),
+            )
         } else {
-            "static (fixed in place)".into()
-        };
-        let rubs = if o.movable {
-            format!(", floor friction {friction:.2} N")
-        } else {
-            String::new()
+            ("static (fixed in place)".into(), String::new())
         };
         outln!(
             "  object {i} \"{}\": {load}, {} part(s), centre ({:.3}, {:.3}), height {} m, size {:.3} m{rubs}",

@@ -442,7 +442,7 @@ fn replay_trials(a: &Args, db: &std::path::Path) -> Result<(), CliError> {
                     overrides: r.overrides(),
                     ..Default::default()
                 };
-                crate::caught(|| Ok(formica::run(&r.scenario, &opts).map(|(res, _)| res)?))
+                crate::caught(|| formica::run(&r.scenario, &opts).map(|(res, _)| res))
                     .map_err(|e| in_trial(e, &format!("trial {}", r.trial)))
             })
             .collect()
@@ -524,7 +524,7 @@ fn run_many(a: &Args, sc: &Scenario, seeds: std::ops::RangeInclusive<u64>) -> Re
                         overrides: overrides(a, Some(seed)),
                         ..Default::default()
                     };
-                    crate::caught(|| Ok(formica::run(sc, &opts).map(|(r, _)| r)?))
+                    crate::caught(|| formica::run(sc, &opts).map(|(r, _)| r))
                         .map_err(|e| in_trial(e, &format!("seed {seed}")))
                 })
                 .collect()

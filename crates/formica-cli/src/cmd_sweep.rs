@@ -332,7 +332,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
                 if crate::stop_requested() {
                     return None;
                 }
-                match crate::caught(|| Ok(run_trial(&sweep, t, record, &provenance[t.set])?)) {
+                match crate::caught(|| run_trial(&sweep, t, record, &provenance[t.set])) {
                     Ok(row) => tx
                         .send((row, judged[t.set]))
                         .err()
@@ -345,7 +345,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     drop(tx);
     let written = writer.join().map_err(|payload| {
         // Its message too: while trials run, the panic hook leaves the reporting to us.
-        let message = crate::panic_message(payload.as_ref()).unwrap_or_default();
+        let message = formica::world::panic_message(payload.as_ref()).unwrap_or_default();
         CliError::Other(anyhow::anyhow!("the result writer panicked: {message}"))
     })?;
     let (n, ok, unjudged) = written?;

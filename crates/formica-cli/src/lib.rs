@@ -470,14 +470,6 @@ fn dispatch(cli: Cli) -> Result<(), CommandError> {
     }
 }
 
-/// The message a panic carries (`panic!` gives a `String` or a `&str`), if it carries one.
-pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> Option<String> {
-    payload
-        .downcast_ref::<String>()
-        .cloned()
-        .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-}
-
 /// How many trials run inside [`caught`] now, on any thread: while one does, a panic with a
 /// message is reported by it, not printed by the hook (a trial's world may step on threads of
 /// its own pool, whose panic comes back to the trial's thread).
@@ -492,7 +484,9 @@ static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
 /// every worker thread, and a sweep keeps running its other trials. A panic that carries
 /// something else than a message (an embedder's, such as the Python package's controller
 /// exceptions) is printed and unwinds on as before.
-pub(crate) fn caught<T>(f: impl FnOnce() -> Result<T, CliError>) -> Result<T, CliError> {
+pub(crate) fn caught<T, E: Into<CliError>>(
+    f: impl FnOnce() -> Result<T, E>,
+) -> Result<T, CliError> {
     use std::sync::atomic::Ordering;
     static HOOK: std::sync::Once = std::sync::Once::new();
     HOOK.call_once(|| {
@@ -515,22 +509,23 @@ pub(crate) fn caught<T>(f: impl FnOnce() -> Result<T, CliError>) -> Result<T, Cl
     IN_TRIALS.fetch_add(1, Ordering::SeqCst);
     let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
     IN_TRIALS.fetch_sub(1, Ordering::SeqCst);
-    out.unwrap_or_else(|payload| {
-        let Some(message) = panic_message(payload.as_ref()) else {
-            std::panic::resume_unwind(payload)
-        };
-        // The place of this panic, or of one beside it on another trial's thread (two trials
-        // that panic at once may swap places; the messages are their own).
-        let at = LAST_PANIC
-            .lock()
-            .ok()
-            .and_then(|mut last| last.take())
-            .unwrap_or_default();
-        Err(CliError::Other(anyhow::anyhow!(
-            "stopped by a panic{at}: {message} (a bug in a controller, or in Formica: please \
+    out.map(|r| r.map_err(Into::into))
+        .unwrap_or_else(|payload| {
+            let Some(message) = formica::world::panic_message(payload.as_ref()) else {
+                std::panic::resume_unwind(payload)
+            };
+            // The place of this panic, or of one beside it on another trial's thread (two trials
+            // that panic at once may swap places; the messages are their own).
+            let at = LAST_PANIC
+                .lock()
+                .ok()
+                .and_then(|mut last| last.take())
+                .unwrap_or_default();
+            Err(CliError::Other(anyhow::anyhow!(
+                "stopped by a panic{at}: {message} (a bug in a controller, or in Formica: please \
              report it with the scenario and seed)"
-        )))
-    })
+            )))
+        })
 }
 
 /// Cores this process may use (1 when unknown).
@@ -557,7 +552,7 @@ mod tests {
         );
         assert!(matches!(err, CliError::Other(_)));
         // Values pass through.
-        assert_eq!(caught(|| Ok(7)).ok(), Some(7));
+        assert_eq!(caught(|| Ok::<_, CliError>(7)).ok(), Some(7));
         // Another payload (an embedder's) unwinds on, untouched.
         struct Carried(u8);
         let payload = std::panic::catch_unwind(|| {

@@ -441,13 +441,10 @@ fn legend_corner(
     best.1
 }
 
-/// Draws the series labels at `corner`, in the reports' style.
 /// Most characters of a legend entry: a longer one (a long parameter value) is cut, so that the
 /// legend stays inside the plot.
 const LEGEND_CHARS: usize = 48;
 
-/// A legend entry: `name` on one line, its middle cut out ("...") where longer than
-/// [`LEGEND_CHARS`], keeping both ends (two values may differ at either).
 /// The legend entries of `names`, each as [`legend_text`] gives it; where two different names
 /// would read alike once cut, each of those is numbered (`2: ...`) so that no two read alike.
 fn legend_texts<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
@@ -467,6 +464,8 @@ fn legend_texts<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
         .collect()
 }
 
+/// A legend entry: `name` on one line, its middle cut out ("...") where longer than
+/// [`LEGEND_CHARS`], keeping both ends (two values may differ at either).
 fn legend_text(name: &str) -> String {
     let chars: Vec<char> = name
         .chars()
@@ -484,6 +483,7 @@ fn legend_text(name: &str) -> String {
     format!("{a}...{b}")
 }
 
+/// Draws the series labels at `corner`, in the reports' style.
 fn draw_legend<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     corner: Corner,

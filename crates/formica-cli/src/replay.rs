@@ -149,21 +149,10 @@ impl Replayer {
             Some((file, toml)) if !want.is_empty() => {
                 // Positions are in the stored text (the file with the trial's overrides), not
                 // in the file on disk: say so in the place.
-                Scenario::parse(&toml, &file).map_err(|e| {
-                    let e = match e {
-                        formica::ScenarioError::Invalid {
-                            line,
-                            column,
-                            message,
-                            ..
-                        } => formica::ScenarioError::Invalid {
-                            file: format!("{file} as stored in {name}"),
-                            line,
-                            column,
-                            message,
-                        },
-                        e => e,
-                    };
+                Scenario::parse(&toml, &file).map_err(|mut e| {
+                    if let formica::ScenarioError::Invalid { file: at, .. } = &mut e {
+                        *at = format!("{file} as stored in {name}");
+                    }
                     CliError::Input(format!(
                         "{name}: trial {}'s stored scenario does not parse with this program: {e} \
                          (a store written by a program with its own controllers or models is \

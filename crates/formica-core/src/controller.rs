@@ -402,19 +402,18 @@ impl FlatReadings {
 pub fn parse_params<P: serde::de::DeserializeOwned>(
     params: Option<&toml::Table>,
 ) -> Result<P, String> {
-    let table = params.cloned().unwrap_or_default();
-    toml::Value::Table(table.clone())
+    toml::Value::Table(params.cloned().unwrap_or_default())
         .try_into::<P>()
-        .map_err(|e| with_key::<P>(&table, e.message().trim()))
+        .map_err(|e| with_key::<P>(params, e.message().trim()))
 }
 
 /// `message` about `table`, prefixed with the key it is about (`` `push.spread_s`: ``) where
 /// reading the table written out as text finds one (a value of the wrong type or range; an
 /// unknown key is named by the message itself). Only on the error path: parameters that
 /// read are read from the table as they are.
-fn with_key<P: serde::de::DeserializeOwned>(table: &toml::Table, message: &str) -> String {
+fn with_key<P: serde::de::DeserializeOwned>(table: Option<&toml::Table>, message: &str) -> String {
     let located = || {
-        let text = toml::to_string(table).ok()?;
+        let text = toml::to_string(table?).ok()?;
         let span = toml::from_str::<P>(&text).err()?.span()?;
         // A missing key is reported at the whole table (an empty span at its start), which
         // is no key's place; the message names the key itself.

@@ -198,6 +198,15 @@ fn solver_factor(groups: &[Group], objects: &[Object]) -> u32 {
     ((hi / lo).sqrt().ceil() as u32).clamp(1, MAX_SOLVER_FACTOR)
 }
 
+/// The message a panic carries (`panic!` gives a `String` or a `&str`), if it carries one: for
+/// those who catch what [`World::step`] raises (a controller's NaN wheel speed) and report it.
+pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> Option<String> {
+    payload
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+}
+
 /// The most `solver_factor` gives.
 pub const MAX_SOLVER_FACTOR: u32 = 4;
 

@@ -394,11 +394,7 @@ fn handle(shared: &Shared, mut stream: TcpStream, slot: Slot, timeout: Duration)
 /// restart included, would be told the simulation is busy.
 fn unpanicked<T>(f: impl FnOnce() -> T) -> Result<T, String> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|payload| {
-        payload
-            .downcast_ref::<String>()
-            .cloned()
-            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-            .unwrap_or_else(|| "(no message)".into())
+        formica::world::panic_message(payload.as_ref()).unwrap_or_else(|| "(no message)".into())
     })
 }
 
