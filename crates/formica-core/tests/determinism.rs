@@ -72,7 +72,7 @@ const GOLDEN: u64 = 0x8b95_54b6_c8a9_4c2f;
 /// `constant`: 6 robots driving into a movable box at two wheel speeds, 20 s.
 const GOLDEN_CONSTANT: u64 = 0x4a19_dc20_1280_a25e;
 /// `occlusion`: `scenarios/seed-transport.toml`, 30 s.
-const GOLDEN_OCCLUSION: u64 = 0x3d76_f8cd_12ac_b673;
+const GOLDEN_OCCLUSION: u64 = 0xefbb_1348_df9b_0dbd;
 /// `filling`: `scenarios/seed-fill-u.toml`, 30 s.
 const GOLDEN_FILLING: u64 = 0xd1b0_bc37_a571_b29c;
 /// `fill-transport`: `scenarios/fill-transport-u.toml`, 30 s.

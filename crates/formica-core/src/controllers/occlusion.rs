@@ -207,6 +207,15 @@ pub struct Params {
     /// (a neighbour right in front also hides it). 180 switches the check off. Default 30.
     /// With relays, `relay.occlusion_bins` decides instead (unless it is 0).
     pub occluder_angle_deg: f32,
+    /// A dark goal counts as hidden by the object only once the robot has seen the goal (and
+    /// knows which way it lies); until then the robot circles. A robot that has never seen it
+    /// cannot tell the object's shadow from its neighbours': 20 foot-bots starting in a block
+    /// between the seed's box and the goal, in each other's shadow, pushed the box away from
+    /// the goal into the wall (2 of 20 arrive, seeds 1-20; 20 of 20 with the sighting). False:
+    /// before the goal is first seen, any dark goal counts as hidden (results format 31 and
+    /// earlier). No effect with the goal seen by the camera (relays) or with
+    /// `occluder_angle_deg = 180`. Default true.
+    pub push_needs_goal: bool,
     /// Sub-goal relays (Queiroz and MacRae 2024): the goal is what the camera shows in
     /// `relay.goal_color`, and robots that lose it behind an obstacle become relays. Default
     /// false.
@@ -298,6 +307,7 @@ impl Default for Params {
             reverse_s: 20.0,
             object_reach: 0.6,
             occluder_angle_deg: 30.0,
+            push_needs_goal: true,
             relays: false,
             goal_sensor: None,
             relay: relay::Params::default(),
@@ -1051,6 +1061,10 @@ impl Occlusion {
             _ if scanned.is_some() => scanned == Some(true),
             (Some(g), Some(o)) => {
                 wrap_angle(o + r.pose.theta - g).abs() <= self.p.occluder_angle_deg.to_radians()
+            }
+            // Never seen the goal: a neighbour may be what hides it.
+            (None, _) if self.relay.is_none() && self.p.push_needs_goal => {
+                self.p.occluder_angle_deg >= 180.0
             }
             _ => true,
         };
@@ -1843,6 +1857,12 @@ mod tests {
         ticks: usize,
         pose: impl Fn(usize) -> Pose,
     ) -> (crate::sensors::SensorLayout, Vec<(Actuation, &'static str)>) {
+        // The goal never shows here: these runs test what a robot does once it takes the goal
+        // for hidden, so it may without a sighting (the sighting rule is tested apart).
+        let p = Params {
+            push_needs_goal: false,
+            ..p
+        };
         goal_run(p, object_bearing, gap, ticks, pose, |_| None, |_| None)
     }
 
@@ -2063,6 +2083,43 @@ mod tests {
         let still = states(|_| Some(Vec2::new(0.0, 1.0)));
         assert!(still[..300].iter().all(|s| *s == "circle"), "{still:?}");
         assert_eq!(still, states(|_| None));
+    }
+
+    #[test]
+    fn a_robot_that_never_saw_the_goal_does_not_push_in_the_dark() {
+        // On round 1 cm a tick with the object on its left and the goal dark throughout: a
+        // neighbour may be what hides the goal, so it circles.
+        let run = |p: Params, light: fn(&Pose) -> Option<f32>| -> Vec<&'static str> {
+            let pose = |i: usize| Pose::new(0.01 * i as f32, 0.0, 0.0);
+            let (_, run) = goal_run(p, FRAC_PI_2, 0.03, 100, pose, light, |_| None);
+            run.into_iter().map(|(_, s)| s).collect()
+        };
+        let plain = Params {
+            spread_s: 0.0,
+            ..Params::default()
+        };
+        let never = run(plain.clone(), |_| None);
+        assert!(never.iter().all(|s| *s == "circle"), "{never:?}");
+        // Having seen the goal beyond the object for its first 20 cm, it pushes once the goal
+        // has been hidden for `hidden_s`.
+        let seen = run(plain.clone(), |p| (p.x < 0.2).then_some(FRAC_PI_2));
+        assert!(seen[..20].iter().all(|s| *s == "circle"), "{seen:?}");
+        assert!(seen[30..].iter().all(|s| *s == "push"), "{seen:?}");
+        // Chen's rule alone (no check of what hides the goal) and results format 31 push in
+        // the dark at once.
+        for p in [
+            Params {
+                occluder_angle_deg: 180.0,
+                ..plain.clone()
+            },
+            Params {
+                push_needs_goal: false,
+                ..plain
+            },
+        ] {
+            let dark = run(p, |_| None);
+            assert!(dark[10..].iter().all(|s| *s == "push"), "{dark:?}");
+        }
     }
 
     #[test]
