@@ -144,6 +144,7 @@ class Occlusion:
         reverse_s=20.0,
         object_reach=None,
         occluder_angle_deg=30.0,
+        push_needs_goal=True,
     ):
         self.layout = layout
         self.prox_angles = list(layout.proximity_angles)
@@ -165,6 +166,7 @@ class Occlusion:
             object_reach = 0.6 if radius is None or radius + 0.2 <= 0.6 else radius + 0.2
         self.object_reach = object_reach
         self.occluder = math.radians(occluder_angle_deg)
+        self.push_needs_goal = push_needs_goal and occluder_angle_deg < 180.0
         # Behaviour state.
         self.state = "approach"
         self.since_s = 0.0
@@ -252,7 +254,8 @@ class Occlusion:
                 self.goal_dir = g
                 self.goal_fix.add(x, y, g)
         g = self.goal_direction(x, y)
-        by_object = True
+        # Never seen the goal: a neighbour may be what hides it (Rust's `push_needs_goal`).
+        by_object = not (g is None and self.push_needs_goal)
         if g is not None and obj is not None:
             by_object = abs(wrap(obj + theta - g)) <= self.occluder
         hidden = dark and by_object

@@ -40,7 +40,9 @@
 //! - **Hidden by the object, not a neighbour**: a dark goal counts only if the object's
 //!   direction (beacon: its centre; camera: the centroid of what the colour scan shows of it)
 //!   is within `occluder_angle_deg` of the goal's direction. With the beacon this also keeps pushers near
-//!   the line from the goal through the centre, so they turn the object little.
+//!   the line from the goal through the centre, so they turn the object little. A robot that
+//!   has never seen the goal does not know where it lies, and does not push
+//!   (`push_needs_goal`, since results format 33).
 //!
 //! Where the object's surface is: with the camera, the nearest object-coloured bin of the scan
 //! gives the inward surface normal and the gap (to the scan's resolution), and proximity hits in
