@@ -215,8 +215,9 @@ pub struct Params {
     /// 20 / 30 against 227 / 309 / 343 / 365 / 350 at 120
     /// (`experiments/fill-transport-stall-small-swarms.toml`,
     /// `experiments/fill-transport-stall-relays.toml`). Without relays 60 ends a crowd's
-    /// circling of a small object sooner (the random draws' 3-point stars, 146 of 160 against
-    /// 141, in 14-42 % less time: `experiments/fill-transport-stall.toml`) but lost more than it
+    /// circling of a small object sooner (the random draws' 3-point stars, 160 of 160 either
+    /// way since results format 33, in 8-33 % less time; format 31: 146 of 160 against 141:
+    /// `experiments/fill-transport-stall.toml`) but lost more than it
     /// gained over every study that runs `fill-transport` in the open (format 30: 5,720
     /// against 5,729 of 5,890; concave objects 0.25 m from a wall 77 against 90 of 150), so 120
     /// stays the default there.
