@@ -271,10 +271,11 @@ pub struct Params {
     /// turns faster than this (rad/s) the way its own push turns it (the push's moment about
     /// the beacon's centre), holds still instead of pushing. Keeps the object from turning
     /// into walls. 0 never (default). Both on (`balance_turn = 0.03, squeeze_s = 3`, seeds
-    /// 1-50, `experiments/near-wall.toml`): five concave objects 0.25 m from a wall 113 -> 162
-    /// of 250 (the arc 2 -> 0), the seed's box 0.25 m from it 44 -> 49 of 50, at a quarter
-    /// more time in the open (the seed's box: median 96.9 -> 121.7 s). Alone, neither helps
-    /// much (seeds 1-30, the five concave objects, 69 of 150: balance 70, squeeze 81).
+    /// 1-50, `experiments/near-wall.toml`, results format 33): five concave objects 0.25 m
+    /// from a wall 209 -> 200 of 250 (the arc 40 -> 28; format 31, before `push_needs_goal`:
+    /// 113 -> 162), the seed's box 0.25 m from it 47 -> 50 of 50, at a quarter more time in
+    /// the open (the seed's box: median 97.0 -> 123.0 s). Alone, neither helped much at
+    /// format 31 (seeds 1-30, the five concave objects, 69 of 150: balance 70, squeeze 81).
     pub balance_turn: f32,
 }
 
