@@ -65,7 +65,7 @@ fn attached_robots_that_realign_with_the_goal_free_a_turned_arc() {
     // attached robots turned with it and skidded sideways against the pushers, and the arc
     // stopped 1.2 m from the goal. Robots that let go, turn onto the goal's axis and attach
     // again (`realign_s`, default 10 s) let it roll on to the goal. Seed 2 since results
-    // format 32 (seed 6 in formats 25 to 31, seed 9 in 18 to 24): over seeds 1-40, without
+    // format 33 (seed 6 in formats 25 to 31, seed 9 in 18 to 24): over seeds 1-40, without
     // realigning 36 arrive (timeouts: 2, 19, 23, 36), with it 40.
     let run = |realign_s: f32| {
         let params = format!("{{ realign_s = {realign_s:.1} }}");
