@@ -207,7 +207,10 @@ pub struct Params {
     /// Largest angle (deg) between the goal's direction (triangulated from the bearings seen
     /// so far) and the object's direction for a hidden goal to count as hidden *by the object*
     /// (a neighbour right in front also hides it). 180 switches the check off. Default 30.
-    /// With relays, `relay.occlusion_bins` decides instead (unless it is 0).
+    /// It also caps how many robots push at once: 45 lets e-pucks deliver the seed's box 45
+    /// times of 50 instead of 26, but turns light objects into walls (the box by the south
+    /// wall 48 -> 41; `experiments/occluder-angle.toml`). With relays,
+    /// `relay.occlusion_bins` decides instead (unless it is 0).
     pub occluder_angle_deg: f32,
     /// A dark goal counts as hidden by the object only once the robot has seen the goal (and
     /// knows which way it lies); until then the robot circles. A robot that has never seen it
