@@ -273,7 +273,17 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     crate::check_duration(a.duration)?;
     crate::check_seed(a.seed)?;
-    for w in crate::cmd_check::warnings_before_run(&sc) {
+    // Warnings about the controllers that will run (`--controller`'s, not the file's), as
+    // `check` with the same arguments gives them.
+    let with_controller;
+    let warned = match a.controller.as_deref() {
+        Some(c) => {
+            with_controller = load_with_controller(path, &a.set, Some(c))?;
+            &with_controller
+        }
+        None => &sc,
+    };
+    for w in crate::cmd_check::warnings_before_run(warned) {
         errln!("{}: warning: {w}", sc.file);
     }
     match &a.seeds {

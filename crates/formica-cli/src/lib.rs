@@ -215,7 +215,12 @@ pub(crate) fn file_kind(path: &std::path::Path) -> Option<FileKind> {
     if f.read_exact(&mut head).is_ok() && &head == b"SQLite format 3\0" {
         return Some(FileKind::Sqlite);
     }
-    let table: toml::Table = toml::from_str(&formica::limits::read_text(path).ok()?).ok()?;
+    let text = formica::limits::read_text(path).ok()?;
+    // Too large to parse safely: the caller's own parse reports it, with its line.
+    if formica::limits::too_large(&text).is_some() {
+        return None;
+    }
+    let table: toml::Table = toml::from_str(&text).ok()?;
     let arena = table.contains_key("arena");
     let sweep = ["scenario", "seeds", "vary", "cases"]
         .iter()

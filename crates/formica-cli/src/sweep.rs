@@ -248,6 +248,10 @@ impl Sweep {
         let file = path.display().to_string();
         let text = formica::limits::read_text(path)
             .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
+        if let Some((at, m)) = formica::limits::too_large(&text) {
+            let (line, col) = line_col(&text, at);
+            return Err(CliError::Input(format!("{file}:{line}:{col}: {m}")));
+        }
         let spec: SweepSpec = toml::from_str(&text).map_err(|e| {
             if crate::file_kind(path) == Some(crate::FileKind::Scenario) {
                 return CliError::Input(format!(

@@ -1310,3 +1310,24 @@ fn a_run_without_an_object_has_no_path_figures() {
         "{v}"
     );
 }
+
+#[test]
+fn run_warns_about_the_controller_it_runs_not_the_files() {
+    // `run --controller filling` on a file of `occlusion` robots with no goal light: the
+    // warning is `filling`'s (robots below a light over open floor circle there), as `check`
+    // with the same arguments gives it, not `occlusion`'s (no light is the goal).
+    let out = formica()
+        .arg("run")
+        .arg(repo("scenarios/seed-transport.toml"))
+        .args(["--controller", "filling", "--set", "lights.0.goal=false"])
+        .args(["--seed", "1", "--duration", "1"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning: lights.0 stands over open floor"),
+        "{err}"
+    );
+    assert!(!err.contains("occlusion"), "{err}");
+}

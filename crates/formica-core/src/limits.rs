@@ -27,8 +27,26 @@ pub fn read_text(path: &std::path::Path) -> std::io::Result<String> {
             "larger than the {MAX_FILE_BYTES} bytes a file may have"
         )));
     }
-    String::from_utf8(bytes)
-        .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+        let line_start = bytes[..at]
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |p| p + 1);
+        // Columns count characters; the line's bytes up to `at` are valid UTF-8.
+        let column = 1 + String::from_utf8_lossy(&bytes[line_start..at])
+            .chars()
+            .count();
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "not UTF-8 text: line {line}, column {column} has the byte 0x{:02x}",
+                bytes[at]
+            ),
+        )
+    })
 }
 
 /// Deepest nesting of arrays and inline tables in a scenario file.
@@ -275,12 +293,11 @@ fn first_entry(t: &DeTable<'_>) -> Option<Range<usize>> {
     t.iter().map(|(k, _)| k.span()).min_by_key(|s| s.start)
 }
 
-/// Byte offset of the first `[` or `{` nested deeper than [`MAX_NESTING`] (outside strings and
-/// comments): the parser and the deserialiser recurse, so a file of a million `[` would
-/// overflow the stack.
-pub fn too_deep(text: &str) -> Option<usize> {
+/// Byte offset of the first structural byte of `text` (outside strings and comments) for which
+/// `stop` returns true.
+fn scan(text: &str, mut stop: impl FnMut(u8) -> bool) -> Option<usize> {
     let b = text.as_bytes();
-    let (mut i, mut depth) = (0, 0usize);
+    let mut i = 0;
     while i < b.len() {
         match b[i] {
             b'#' => {
@@ -305,18 +322,67 @@ pub fn too_deep(text: &str) -> Option<usize> {
                 i += n;
                 continue;
             }
-            b'[' | b'{' => {
-                depth += 1;
-                if depth > MAX_NESTING {
+            c => {
+                if stop(c) {
                     return Some(i);
                 }
             }
-            b']' | b'}' => depth = depth.saturating_sub(1),
-            _ => {}
         }
         i += 1;
     }
     None
+}
+
+/// Byte offset of the first `[` or `{` nested deeper than [`MAX_NESTING`] (outside strings and
+/// comments): the parser and the deserialiser recurse, so a file of a million `[` would
+/// overflow the stack.
+pub fn too_deep(text: &str) -> Option<usize> {
+    let mut depth = 0usize;
+    scan(text, |c| match c {
+        b'[' | b'{' => {
+            depth += 1;
+            depth > MAX_NESTING
+        }
+        b']' | b'}' => {
+            depth = depth.saturating_sub(1);
+            false
+        }
+        _ => false,
+    })
+}
+
+/// Most values a scenario or sweep file may hold (counted, before parsing, as its `,`, `=`,
+/// `[` and `{` outside strings and comments). Parsing keeps a few hundred bytes for each value,
+/// so without this a 20 MB file of `[0,0,0,...]` took 2.7 GB; at the limit a file takes about
+/// 0.5 GB. 100,000 robots with a pose each need 500,000.
+pub const MAX_VALUES: usize = 2_000_000;
+
+/// Byte offset where `text` passes [`MAX_VALUES`] values.
+pub fn too_many_values(text: &str) -> Option<usize> {
+    let mut n = 0usize;
+    scan(text, |c| {
+        if matches!(c, b',' | b'=' | b'[' | b'{') {
+            n += 1;
+        }
+        n > MAX_VALUES
+    })
+}
+
+/// The size checks of a file's text before it is parsed: nesting ([`too_deep`]) and the number
+/// of values ([`too_many_values`]). Returns the byte offset and what is wrong.
+pub fn too_large(text: &str) -> Option<(usize, String)> {
+    if let Some(at) = too_deep(text) {
+        return Some((
+            at,
+            format!("arrays and inline tables nested more than {MAX_NESTING} deep"),
+        ));
+    }
+    too_many_values(text).map(|at| {
+        (
+            at,
+            format!("more than {MAX_VALUES} values (numbers, strings, arrays, tables) in one file"),
+        )
+    })
 }
 
 /// Checks every number of `sc`'s file against its range (see the module doc), in file order

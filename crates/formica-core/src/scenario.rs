@@ -1145,13 +1145,21 @@ impl Overridden {
             .iter()
             .filter_map(|(k, v)| shared(k).map(|n| (n, k, v)))
             .max_by_key(|(n, _, _)| *n);
+        let mut message = message;
         if let Some((_, key, value)) = by {
-            return override_error(
-                &self.origin_file,
-                &self.origin_text,
-                key,
-                format!("`{key}` = {value}: {file} rejects it: {message}"),
-            );
+            // An override at or above what the error is about wrote it; one below it (a key of
+            // the object the error is about) may have nothing to do with it (`objects.0.height`
+            // for an object outside the arena), unless the message names its key.
+            let last = key.rsplit('.').next().unwrap_or(key);
+            if key.split('.').count() <= path.len() || message.contains(&format!("`{last}`")) {
+                return override_error(
+                    &self.origin_file,
+                    &self.origin_text,
+                    key,
+                    format!("`{key}` = {value}: {file} rejects it: {message}"),
+                );
+            }
+            message += &format!(" (with `{key}` = {value} from {})", self.origin_file);
         }
         // Not overridden: where the file writes it (`robots[0].count` as `span_of` spells it).
         let mut dotted = String::new();
@@ -1239,14 +1247,8 @@ impl Scenario {
                 ),
             ));
         }
-        if let Some(at) = limits::too_deep(text) {
-            return Err(invalid(
-                at,
-                format!(
-                    "arrays and inline tables nested more than {} deep",
-                    limits::MAX_NESTING
-                ),
-            ));
+        if let Some((at, message)) = limits::too_large(text) {
+            return Err(invalid(at, message));
         }
         if let Some((span, message)) = limits::wrong_length(text) {
             return Err(invalid(span.start, message));

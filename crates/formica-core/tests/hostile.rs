@@ -579,3 +579,54 @@ fn errors_found_while_building_a_world_with_overrides_name_the_file_or_the_overr
     );
     assert!(message.contains("unknown field `nope`"), "{message}");
 }
+
+#[test]
+fn a_file_of_millions_of_values_is_refused_before_it_is_parsed() {
+    // Parsing keeps a few hundred bytes a value: a 20 MB file of zeros took 2.7 GB before the
+    // count was checked first.
+    let zeros = vec!["0"; formica::limits::MAX_VALUES + 10].join(",");
+    let t = text(&format!(
+        "[[robots]]\ncount = 3\ncontroller = \"random-walk\"\nparams = {{ x = [{zeros}] }}\n"
+    ));
+    let (line, _, message) = refused(&t);
+    assert_eq!(line, line_of(&t, "params = "));
+    assert!(message.contains("more than 2000000 values"), "{message}");
+}
+
+#[test]
+fn a_file_that_is_not_utf8_is_refused_at_its_line_and_column() {
+    let path = std::env::temp_dir().join(format!("formica-utf8-{}.toml", std::process::id()));
+    std::fs::write(&path, b"a = 1\n# caf\xc3\xa9 \xff\n").unwrap();
+    let e = formica::limits::read_text(&path).unwrap_err().to_string();
+    std::fs::remove_file(&path).unwrap();
+    assert!(e.contains("line 2, column 8 has the byte 0xff"), "{e}");
+}
+
+#[test]
+fn an_override_below_what_an_error_is_about_is_named_not_blamed() {
+    // The object is outside the arena in the file itself; an override of its mass used to be
+    // reported as the key the file rejects.
+    let t = text(&format!(
+        "[[objects]]\nat = [2.9, 0.0]\nshape = {{ box = [0.5, 0.5] }}\n{ROBOTS}"
+    ));
+    let sweep = "seeds = \"1..2\"\n\n[vary]\n\"objects.0.mass\" = [10.0, 20.0]\n";
+    let sc = Scenario::parse_with_overrides(
+        &t,
+        "t.toml",
+        &[("objects.0.mass".to_string(), toml::Value::Float(10.0))],
+        ("sweep.toml", sweep),
+    )
+    .unwrap();
+    let (file, line, message) = build_refused(&sc);
+    assert_eq!(
+        (file.as_str(), line),
+        ("t.toml", line_of(&t, "[[objects]]")),
+        "{message}"
+    );
+    assert!(message.contains("reaches outside the arena"), "{message}");
+    assert!(
+        message.contains("(with `objects.0.mass` = 10.0 from sweep.toml)")
+            && !message.contains("rejects it"),
+        "{message}"
+    );
+}
