@@ -150,10 +150,8 @@ pub(crate) fn scenario_of(py: Python<'_>, obj: &Bound<'_, PyAny>) -> PyResult<Sc
 
 fn load_file(path: &std::path::Path) -> Result<PyScenario, ScenarioError> {
     let file = path.display().to_string();
-    let text = formica::limits::read_text(path).map_err(|e| ScenarioError::Io {
-        file: file.clone(),
-        message: e.to_string(),
-    })?;
+    let text =
+        formica::limits::read_text(path).map_err(|e| formica::limits::read_error(&file, &e))?;
     PyScenario::make(file, text, Vec::new())
 }
 

@@ -189,7 +189,7 @@ fn load_scenario(path: &std::path::Path, set: &[String]) -> Result<Scenario, Cli
     }
     let file = path.display().to_string();
     let text = formica::limits::read_text(path)
-        .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
+        .map_err(|e| CliError::from(formica::limits::read_error(&file, &e)))?;
     let mut overrides = Vec::with_capacity(set.len());
     for item in set {
         let (key, value) = parse_set(item)?;

@@ -247,7 +247,7 @@ impl Sweep {
     pub fn load(path: &Path) -> Result<Sweep, CliError> {
         let file = path.display().to_string();
         let text = formica::limits::read_text(path)
-            .map_err(|e| CliError::Input(format!("{file}: cannot read: {e}")))?;
+            .map_err(|e| CliError::from(formica::limits::read_error(&file, &e)))?;
         if let Some((at, m)) = formica::limits::too_large(&text) {
             let (line, col) = line_col(&text, at);
             return Err(CliError::Input(format!("{file}:{line}:{col}: {m}")));

@@ -41,12 +41,54 @@ pub fn read_text(path: &std::path::Path) -> std::io::Result<String> {
             .count();
         std::io::Error::new(
             std::io::ErrorKind::InvalidData,
-            format!(
-                "not UTF-8 text: line {line}, column {column} has the byte 0x{:02x}",
-                bytes[at]
-            ),
+            NotUtf8 {
+                line,
+                column,
+                byte: bytes[at],
+            },
         )
     })
+}
+
+/// Where a file that is not UTF-8 text first is not: the error inside [`read_text`]'s
+/// `InvalidData` error, so that callers can give the file's line and column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NotUtf8 {
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column (in characters).
+    pub column: usize,
+    /// The first byte that is not UTF-8 there.
+    pub byte: u8,
+}
+
+impl std::fmt::Display for NotUtf8 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "not UTF-8 text: line {}, column {} has the byte 0x{:02x}",
+            self.line, self.column, self.byte
+        )
+    }
+}
+
+impl std::error::Error for NotUtf8 {}
+
+/// [`read_text`]'s error `e` for `file` as a scenario error: at the line and column of the
+/// first byte that is not UTF-8, or else the file cannot be read.
+pub fn read_error(file: &str, e: &std::io::Error) -> ScenarioError {
+    match e.get_ref().and_then(|i| i.downcast_ref::<NotUtf8>()) {
+        Some(n) => ScenarioError::Invalid {
+            file: file.to_string(),
+            line: n.line,
+            column: n.column,
+            message: format!("not UTF-8 text: the byte 0x{:02x}", n.byte),
+        },
+        None => ScenarioError::Io {
+            file: file.to_string(),
+            message: e.to_string(),
+        },
+    }
 }
 
 /// Deepest nesting of arrays and inline tables in a scenario file.

@@ -1210,10 +1210,7 @@ impl Scenario {
         registry: &Registry,
     ) -> Result<Scenario, ScenarioError> {
         let file = path.display().to_string();
-        let text = limits::read_text(path).map_err(|e| ScenarioError::Io {
-            file: file.clone(),
-            message: e.to_string(),
-        })?;
+        let text = limits::read_text(path).map_err(|e| limits::read_error(&file, &e))?;
         Self::parse_in(&text, &file, registry)
     }
 

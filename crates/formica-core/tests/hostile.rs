@@ -597,9 +597,16 @@ fn a_file_of_millions_of_values_is_refused_before_it_is_parsed() {
 fn a_file_that_is_not_utf8_is_refused_at_its_line_and_column() {
     let path = std::env::temp_dir().join(format!("formica-utf8-{}.toml", std::process::id()));
     std::fs::write(&path, b"a = 1\n# caf\xc3\xa9 \xff\n").unwrap();
-    let e = formica::limits::read_text(&path).unwrap_err().to_string();
+    let e = formica::limits::read_text(&path).unwrap_err();
+    assert!(
+        e.to_string().contains("line 2, column 8 has the byte 0xff"),
+        "{e}"
+    );
+    // As a scenario: at its line and column, as every input error.
+    let sc = Scenario::load(&path).err().unwrap().to_string();
     std::fs::remove_file(&path).unwrap();
-    assert!(e.contains("line 2, column 8 has the byte 0xff"), "{e}");
+    let want = format!("{}:2:8: not UTF-8 text: the byte 0xff", path.display());
+    assert_eq!(sc, want);
 }
 
 #[test]
