@@ -177,24 +177,39 @@ impl Primitive {
         Ok(match self {
             Primitive::Box([w, h]) => SharedShape::cuboid(w / 2.0, h / 2.0),
             Primitive::Disc(r) => SharedShape::ball(*r),
-            Primitive::Regular { .. } => SharedShape::convex_polyline(self.outline(0))
+            Primitive::Regular { .. } => convex_shape(self.outline(0))
                 .ok_or_else(|| ShapeError("degenerate regular polygon".into()))?,
             Primitive::Polygon(_) => {
                 let pts = self.outline(0);
                 if is_convex(&pts) {
-                    SharedShape::convex_polyline(pts)
-                        .ok_or_else(|| ShapeError("degenerate polygon".into()))?
+                    convex_shape(pts).ok_or_else(|| ShapeError("degenerate polygon".into()))?
                 } else {
                     let mesh = TriMesh::from_polygon(pts)
                         .ok_or_else(|| ShapeError("polygon could not be triangulated".into()))?;
-                    let compound = Compound::decompose_trimesh(&mesh).ok_or_else(|| {
-                        ShapeError("polygon could not be split into convex parts".into())
-                    })?;
+                    // parry merges the triangles into convex parts and drops a part's vertices
+                    // where its sides turn by less than about 1.5 deg, failing when too few are
+                    // left (a gear of 600 teeth): then the triangles themselves are the parts.
+                    let compound = Compound::decompose_trimesh(&mesh).unwrap_or_else(|| {
+                        Compound::new(
+                            mesh.triangles()
+                                .map(|t| (Default::default(), SharedShape::new(t)))
+                                .collect(),
+                        )
+                    });
                     SharedShape::new(compound)
                 }
             }
         })
     }
+}
+
+/// A convex polygon's collision shape from its counter-clockwise outline. parry drops vertices
+/// where the sides turn by less than about 1.5 deg and gives up when fewer than three are left
+/// (a regular polygon of 240 sides, a triangle 3 mm high on a 0.5 m base); the outline is then
+/// taken as it is.
+fn convex_shape(pts: Vec<Vec2>) -> Option<SharedShape> {
+    SharedShape::convex_polyline(pts.clone())
+        .or_else(|| SharedShape::convex_polyline_unmodified(pts))
 }
 
 /// A polygon's vertices as the shape uses them: a vertex within [`MIN_SIZE_M`] of the one

@@ -637,3 +637,35 @@ fn an_override_below_what_an_error_is_about_is_named_not_blamed() {
         "{message}"
     );
 }
+
+/// `shape` (TOML) as object 0, built into a world and run for a second.
+fn builds_and_runs(shape: &str) {
+    let t = text(&format!(
+        "[[objects]]\nat = [-1.0, 0.0]\nshape = {shape}\n{ROBOTS}"
+    ));
+    let sc = Scenario::parse(&t, "t.toml").unwrap_or_else(|e| panic!("{e}"));
+    let mut w = World::new(&sc, &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
+    for _ in 0..10 {
+        w.step();
+    }
+}
+
+#[test]
+fn fine_outlines_within_the_limits_are_accepted() {
+    // parry drops a convex outline's vertices where its sides turn by less than about 1.5 deg,
+    // and refused these until the outline was taken as it is.
+    builds_and_runs("{ regular = { sides = 240, radius = 0.3 } }");
+    builds_and_runs("{ regular = { sides = 1000, radius = 0.5 } }");
+    builds_and_runs("{ polygon = [[0.0, 0.0], [0.5, 0.0], [0.25, 0.003]] }");
+    // A gear of 600 and of 1000 teeth: parry's convex parts fail, so the triangles are used.
+    for n in [600usize, 1000] {
+        let pts: Vec<String> = (0..n)
+            .map(|k| {
+                let r = if k % 2 == 0 { 0.5 } else { 0.45 };
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                format!("[{:.5}, {:.5}]", r * a.cos(), r * a.sin())
+            })
+            .collect();
+        builds_and_runs(&format!("{{ polygon = [{}] }}", pts.join(", ")));
+    }
+}
