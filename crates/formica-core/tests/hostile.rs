@@ -662,8 +662,8 @@ fn fine_outlines_within_the_limits_are_accepted() {
         let pts: Vec<String> = (0..n)
             .map(|k| {
                 let r = if k % 2 == 0 { 0.5 } else { 0.45 };
-                let a = std::f64::consts::TAU * k as f64 / n as f64;
-                format!("[{:.5}, {:.5}]", r * a.cos(), r * a.sin())
+                let (s, c) = formica::ops::sin_cos(std::f32::consts::TAU * k as f32 / n as f32);
+                format!("[{:.5}, {:.5}]", r * c, r * s)
             })
             .collect();
         builds_and_runs(&format!("{{ polygon = [{}] }}", pts.join(", ")));
