@@ -573,11 +573,45 @@ fn group_warnings(sc: &Scenario, w: Option<&World>, g: usize) -> Vec<String> {
         w.and_then(|w| camera_range_warning(sc, w, g)),
         led_clash_warning(sc, g),
         w.and_then(|w| beacon_light_warning(sc, w, g)),
+        release_warning(sc, g),
+        (g == 0).then(|| goal_radius_warning(sc)).flatten(),
     ]
     .into_iter()
     .flatten()
     .chain(w.map(|w| light_warnings(sc, w, g)).unwrap_or_default())
     .collect()
+}
+
+/// A warning when group `g`'s release schedule lets some of its robots in only after the run
+/// has ended: they never enter, yet count in the result's `robots`.
+fn release_warning(sc: &Scenario, g: usize) -> Option<String> {
+    let r = &sc.spec.robots[g].get_ref().release;
+    let (n, end) = (sc.group_count(g), sc.spec.run.duration_s);
+    let entering = if r.start_s >= end {
+        0
+    } else if r.interval_s > 0.0 {
+        // Releases at start_s + k interval_s, k = 0, 1, ...: those before the end.
+        (((end - r.start_s) / r.interval_s).ceil() as usize).min(n)
+    } else {
+        n
+    };
+    (entering < n).then(|| {
+        format!(
+            "robots.{g}: release starts at {} s, one robot every {} s, but the run ends at {end} s: \
+             {entering} of its {n} robots enter (the rest never do, yet count in `robots`)",
+            r.start_s, r.interval_s
+        )
+    })
+}
+
+/// A warning when `stop.goal_radius` is 0: the object's centre would have to reach the goal's
+/// exact point, so no trial succeeds.
+fn goal_radius_warning(sc: &Scenario) -> Option<String> {
+    (transports(sc) && sc.spec.stop.goal_radius == Some(0.0)).then(|| {
+        "stop.goal_radius is 0: the object's centre would have to reach the goal's exact point, \
+         so no trial can succeed (leave it out for the default, sized to the goal and the object)"
+            .to_string()
+    })
 }
 
 /// For a `filling` group, which steers to the light its ring sees and starts to follow an edge

@@ -1331,3 +1331,30 @@ fn run_warns_about_the_controller_it_runs_not_the_files() {
     );
     assert!(!err.contains("occlusion"), "{err}");
 }
+
+#[test]
+fn check_warns_of_robots_released_after_the_end_and_of_a_goal_radius_of_zero() {
+    let check = |sets: &[&str]| {
+        let mut cmd = formica();
+        cmd.arg("check").arg(repo("scenarios/seed-transport.toml"));
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
+        let out = cmd.output().unwrap();
+        assert!(out.status.success(), "{sets:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    // Releases at 10, 110, ..., 1110 s of a 1200 s run: 12 of the 20 enter.
+    let late = check(&["robots.0.release={start_s=10.0,interval_s=100.0}"]);
+    assert!(
+        late.contains("warning: robots.0: release starts at 10 s")
+            && late.contains("12 of its 20 robots enter"),
+        "{late}"
+    );
+    let never = check(&["robots.0.release={start_s=5000.0}"]);
+    assert!(never.contains("0 of its 20 robots enter"), "{never}");
+    let zero = check(&["stop.goal_radius=0.0"]);
+    assert!(zero.contains("warning: stop.goal_radius is 0"), "{zero}");
+    let fine = check(&["robots.0.release={interval_s=5.0}"]);
+    assert!(!fine.contains("warning"), "{fine}");
+}
