@@ -48,7 +48,7 @@ use std::collections::BTreeMap;
 /// (physics, sensing, controllers, metrics, random streams, scenario defaults) or change what a
 /// result field means bumps it, with an entry in `CHANGELOG.md`. `formica sweep` refuses to add
 /// trials to a store written with another results format.
-pub const RESULTS_FORMAT: u32 = 33;
+pub const RESULTS_FORMAT: u32 = 34;
 
 /// How a run ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]

@@ -1614,6 +1614,20 @@ impl Physics {
         })
     }
 
+    /// Whether a disc of `radius` at `center` intersects the collider of `n` where it is now.
+    pub fn disc_hits(&self, n: &Nearby, center: Vec2, radius: f32) -> bool {
+        let pose = rapier2d::math::Pose::from_translation(center);
+        self.world.colliders.get(n.collider).is_some_and(|c| {
+            rapier2d::parry::query::intersection_test(
+                &pose,
+                &Ball::new(radius),
+                c.position(),
+                c.shape(),
+            )
+            .is_ok_and(|r| r.intersecting)
+        })
+    }
+
     /// Every collider: walls and objects in insertion order, then robots. (Not rapier's
     /// collider set: it is made with room for the robots still to come, and walking it would
     /// visit every empty slot.)

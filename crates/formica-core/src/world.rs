@@ -852,11 +852,14 @@ impl World {
             let model = &self.groups[r.group].model;
             let p = r.start.position();
             if self.time_s > 0.0 {
-                self.physics.nearby(p, model.radius + 0.01, &mut self.near);
+                // Another robot, or an object pushed over the spot since the start (its box in
+                // the index may be a tick old: hence the wider query), keeps it waiting.
+                self.physics.nearby(p, model.radius + 0.1, &mut self.near);
                 let blocked = self.near.iter().any(|n| match n.tag {
                     Tag::Robot(k) => self.robots[k].body.is_some_and(|b| {
                         (self.physics.pose(b).position() - p).length() < 2.0 * model.radius + 0.005
                     }),
+                    Tag::Object(_) => self.physics.disc_hits(n, p, model.radius + 0.005),
                     _ => false,
                 });
                 if blocked {

@@ -691,3 +691,32 @@ fn khepera_squeezing_a_light_box_do_not_sink_into_it() {
     );
     assert!(worst < 0.005, "overlap {} mm", worst * 1000.0);
 }
+
+#[test]
+fn a_robot_is_released_only_once_an_object_has_left_its_start_spot() {
+    // Robot 0 pushes a light 0.3 m box east at 0.1 m/s over robot 1's start spot (1, 0); robot 1
+    // is due at 13 s, when the box covers the spot. It used to appear inside the box (the box
+    // jumped 5.6 cm in one tick); now it waits until the box has passed.
+    let mut run = world(
+        "[[objects]]\nat = [0.0, 0.0]\nshape = { box = [0.3, 0.3] }\nmass = 0.5\nfloor_mu = 0.1\n\
+         [[robots]]\ncontroller = \"constant\"\nparams = { left = 0.1, right = 0.1 }\n\
+         placement = { poses = [[-0.5, 0.0, 0.0], [1.0, 0.0, 90.0]] }\n\
+         release = { interval_s = 13.0 }\n[stop]\non_wall = false\n",
+    );
+    let mut entered = None;
+    for _ in 0..250 {
+        run.world.step();
+        if run.world.robots[1].body.is_some() {
+            let t = run.world.time_s as f32;
+            entered.get_or_insert(t);
+            assert!(
+                deep_overlap(&run.world, 1).is_none(),
+                "robot 1 overlaps {:?} at {t} s",
+                deep_overlap(&run.world, 1)
+            );
+        }
+    }
+    let t = entered.expect("robot 1 was never released");
+    assert!(t > 13.5 && t < 20.0, "released at {t} s");
+    println!("robot 1, due at 13 s under the box, entered at {t:.1} s");
+}
