@@ -204,7 +204,10 @@ pub fn main(a: Args) -> Result<(), CliError> {
             outln!("    warning: {warning}");
         }
     }
-    for warning in goal_warnings(&sc, w) {
+    for warning in goal_warnings(&sc, w)
+        .into_iter()
+        .chain(stray_wall_warnings(w))
+    {
         outln!("    warning: {warning}");
     }
     Ok(())
@@ -291,6 +294,33 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
         .flat_map(|i| object_warnings(sc, w, i))
         .chain((0..sc.spec.robots.len()).flat_map(|g| group_warnings(sc, Some(w), g)))
         .chain(goal_warnings(sc, w))
+        .chain(stray_wall_warnings(w))
+        .collect()
+}
+
+/// A warning for each wall of the file that lies wholly outside the arena, where no robot or
+/// object can meet it (a typing slip in its `at`, most likely).
+fn stray_wall_warnings(w: &World) -> Vec<String> {
+    let (centre, size) = w.arena;
+    w.walls
+        .iter()
+        .enumerate()
+        .skip(4)
+        .filter(|(_, wl)| {
+            // Its bounding circle: a wall outside the arena box by more than that is outside.
+            let r = wl.size.length() / 2.0;
+            ((wl.center - centre).abs() - size / 2.0)
+                .cmpgt(Vec2::splat(r))
+                .any()
+        })
+        .map(|(k, wl)| {
+            format!(
+                "{} at ({}, {}) lies wholly outside the arena: no robot or object can meet it",
+                wall_name(k),
+                wl.center.x,
+                wl.center.y
+            )
+        })
         .collect()
 }
 
@@ -549,9 +579,10 @@ fn too_heavy_warning(sc: &Scenario, w: &World, i: usize) -> Option<String> {
     goal_of_target(w, i)?;
     let o = &w.objects[i];
     let friction = floor_friction(sc, w, i);
-    let all: f32 = (0..w.robots.len())
+    // A fold from +0, not `sum` (whose empty sum is -0.0, printed "-0.00 N").
+    let all = (0..w.robots.len())
         .map(|r| w.robot_model(r).max_force)
-        .sum();
+        .fold(0.0f32, |a, f| a + f);
     (all <= friction).then(|| {
         format!(
             "object {i} \"{}\" needs more than {friction:.2} N to move (floor friction), but \

@@ -1358,3 +1358,31 @@ fn check_warns_of_robots_released_after_the_end_and_of_a_goal_radius_of_zero() {
     let fine = check(&["robots.0.release={interval_s=5.0}"]);
     assert!(!fine.contains("warning"), "{fine}");
 }
+
+#[test]
+fn check_warns_of_a_wall_wholly_outside_the_arena_and_prints_no_negative_zero() {
+    let check = |set: &str| {
+        let out = formica()
+            .arg("check")
+            .arg(repo("scenarios/seed-transport.toml"))
+            .args(["--set", set])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{set}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let far = check("walls=[{at=[50.0,0.0],size=[0.5,0.5]}]");
+    assert!(
+        far.contains("warning: walls[0] at (50, 0) lies wholly outside the arena"),
+        "{far}"
+    );
+    // Astride the east wall (the arena reaches x = 3): partly inside, no warning.
+    let astride = check("walls=[{at=[3.2,0.0],size=[0.5,0.5]}]");
+    assert!(!astride.contains("warning"), "{astride}");
+    // No robots: their force is 0.00 N, not -0.00 (an empty f32 sum).
+    let none = check("robots=[]");
+    assert!(
+        none.contains("at most 0.00 N") && !none.contains("-0.00"),
+        "{none}"
+    );
+}
