@@ -206,7 +206,7 @@ pub fn main(a: Args) -> Result<(), CliError> {
     }
     for warning in goal_warnings(&sc, w)
         .into_iter()
-        .chain(stray_wall_warnings(w))
+        .chain(arena_warnings(&sc, w))
     {
         outln!("    warning: {warning}");
     }
@@ -294,6 +294,15 @@ pub(crate) fn run_warnings(sc: &Scenario, w: &World) -> Vec<String> {
         .flat_map(|i| object_warnings(sc, w, i))
         .chain((0..sc.spec.robots.len()).flat_map(|g| group_warnings(sc, Some(w), g)))
         .chain(goal_warnings(sc, w))
+        .chain(arena_warnings(sc, w))
+        .collect()
+}
+
+/// Warnings about the scenario as a whole that `check` prints after the goal's, and `run` and
+/// `sweep` print too: `stop.goal_radius` of 0 and walls outside the arena.
+fn arena_warnings(sc: &Scenario, w: &World) -> Vec<String> {
+    goal_radius_warning(sc)
+        .into_iter()
         .chain(stray_wall_warnings(w))
         .collect()
 }
@@ -605,7 +614,6 @@ fn group_warnings(sc: &Scenario, w: Option<&World>, g: usize) -> Vec<String> {
         led_clash_warning(sc, g),
         w.and_then(|w| beacon_light_warning(sc, w, g)),
         release_warning(sc, g),
-        (g == 0).then(|| goal_radius_warning(sc)).flatten(),
     ]
     .into_iter()
     .flatten()

@@ -1605,27 +1605,17 @@ impl Physics {
     /// The first collider (in insertion order) that a disc of `radius` at `center` overlaps.
     /// Scans every collider, so it works before the first step; meant for set-up checks.
     pub fn disc_overlaps(&self, center: Vec2, radius: f32) -> Option<Tag> {
-        let ball = Ball::new(radius);
-        let pose = rapier2d::math::Pose::from_translation(center);
-        self.colliders().find_map(|c| {
-            rapier2d::parry::query::intersection_test(&pose, &ball, c.position(), c.shape())
-                .is_ok_and(|r| r.intersecting)
-                .then(|| Tag::decode(c.user_data))
-        })
+        self.colliders()
+            .find(|c| disc_meets(c, center, radius))
+            .map(|c| Tag::decode(c.user_data))
     }
 
     /// Whether a disc of `radius` at `center` intersects the collider of `n` where it is now.
     pub fn disc_hits(&self, n: &Nearby, center: Vec2, radius: f32) -> bool {
-        let pose = rapier2d::math::Pose::from_translation(center);
-        self.world.colliders.get(n.collider).is_some_and(|c| {
-            rapier2d::parry::query::intersection_test(
-                &pose,
-                &Ball::new(radius),
-                c.position(),
-                c.shape(),
-            )
-            .is_ok_and(|r| r.intersecting)
-        })
+        self.world
+            .colliders
+            .get(n.collider)
+            .is_some_and(|c| disc_meets(c, center, radius))
     }
 
     /// Every collider: walls and objects in insertion order, then robots. (Not rapier's
@@ -1723,4 +1713,11 @@ impl Physics {
         let p = self.world.colliders[id.collider].position();
         Pose::new(p.translation.x, p.translation.y, p.rotation.angle())
     }
+}
+
+/// Whether a disc of `radius` at `center` intersects collider `c`.
+fn disc_meets(c: &Collider, center: Vec2, radius: f32) -> bool {
+    let pose = rapier2d::math::Pose::from_translation(center);
+    rapier2d::parry::query::intersection_test(&pose, &Ball::new(radius), c.position(), c.shape())
+        .is_ok_and(|r| r.intersecting)
 }
